@@ -1,0 +1,128 @@
+"""Statics of the SAIL arm: joint torques from end-effector force and back.
+
+With the motors locked (q_dot = 0) and the plane horizontal (no gravity), the
+seed's dynamic model (Eq. 2) reduces to T = J^T F (Eq. 3).  T is the torque
+the end-effector force *induces* at the motor axes B, counter-clockwise
+positive; the motors' holding torque is -T.
+
+Departure from the seed (ERRATA.md, Statics): the seed's inverse of J^T
+(Eq. 10) is the transpose of the true inverse, and Eqs. 11-12 inherit that
+error; Eq. 13 (polar form) is garbled.  Here
+
+    (J^T)^-1 = 1 / (l2 l3 sin(th1 - th2)) [[-l2 cos th2,  l3 cos th1],
+                                           [-l2 sin th2,  l3 sin th1]]
+
+and the polar form is |F| = hypot(Fx, Fy), phi = atan2(Fy, Fx).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._validate import as_float_arrays
+from .errors import SingularPoseError
+from .kinematics import Links
+
+#: Poses with |sin(theta1 - theta2)| below this are refused by the force
+#: inversion.  sin(2 deg): there the error in F is amplified ~29x relative to
+#: a square pose (delta = 90 deg), which no load cell's accuracy survives; the
+#: seed's study stays at |delta| >= 7.5 deg.
+SINGULAR_SIN_DELTA = float(np.sin(np.radians(2.0)))
+
+
+def joint_torques(arm: Links, theta1, theta2, fx, fy) -> tuple[np.ndarray, np.ndarray]:
+    """Joint torques T = J^T F [N m] induced by the end-effector force (fx, fy) [N].
+
+    Seed Eqs. 3, 6 and 7, which reduce to T1 = l3 |F| sin(phi - theta1) and
+    T2 = l2 |F| sin(phi - theta2) (ERRATA.md).
+
+    >>> from sailforce import Arm
+    >>> t1, t2 = joint_torques(Arm(), np.pi / 2, 0.0, 0.0, 10.0)
+    >>> round(float(t1), 12), round(float(t2), 12)
+    (0.0, 3.0)
+    """
+    theta1, theta2, fx, fy = as_float_arrays(theta1=theta1, theta2=theta2, fx=fx, fy=fy)
+    c1, s1 = np.cos(theta1), np.sin(theta1)
+    c2, s2 = np.cos(theta2), np.sin(theta2)
+    t1 = arm.l3 * (c1 * fy - s1 * fx)
+    t2 = arm.l2 * (c2 * fy - s2 * fx)
+    return t1, t2
+
+
+def end_effector_force(
+    arm: Links,
+    theta1,
+    theta2,
+    t1,
+    t2,
+    *,
+    on_singular: str = "raise",
+    min_sin_delta: float = SINGULAR_SIN_DELTA,
+):
+    """End-effector force F = (J^T)^-1 T [N] from joint torques (t1, t2) [N m].
+
+    Uses the corrected inverse (module docstring, ERRATA.md), not the seed's
+    Eq. 10-12.  Where |sin(theta1 - theta2)| < ``min_sin_delta``:
+
+    - ``on_singular="raise"`` (default) raises :class:`SingularPoseError`
+      naming the first such pose and the threshold;
+    - ``on_singular="mask"`` returns ``(fx, fy, singular)`` with NaN in fx and
+      fy where the boolean mask ``singular`` is True.
+
+    >>> from sailforce import Arm
+    >>> fx, fy = end_effector_force(Arm(), np.pi / 2, 0.0, 0.0, 3.0)
+    >>> round(float(fx), 12), round(float(fy), 12)
+    (0.0, 10.0)
+    """
+    if on_singular not in ("raise", "mask"):
+        raise ValueError(f"on_singular: expected 'raise' or 'mask', got {on_singular!r}")
+    theta1, theta2, t1, t2 = as_float_arrays(theta1=theta1, theta2=theta2, t1=t1, t2=t2)
+    c1, s1 = np.cos(theta1), np.sin(theta1)
+    c2, s2 = np.cos(theta2), np.sin(theta2)
+    sd = s1 * c2 - c1 * s2  # sin(theta1 - theta2) without a fifth trig call
+    singular = np.abs(sd) < min_sin_delta
+    any_singular = bool(np.any(singular))
+    if any_singular and on_singular == "raise":
+        _raise_singular(theta1, theta2, sd, singular, min_sin_delta)
+    l2, l3 = arm.l2, arm.l3
+    # Eq. 8 with the corrected (J^T)^-1; the scale is applied once.
+    scale = 1.0 / (l2 * l3 * np.where(singular, 1.0, sd)) if any_singular else 1.0 / (l2 * l3 * sd)
+    l2t1 = l2 * t1
+    l3t2 = l3 * t2
+    fx = (l3t2 * c1 - l2t1 * c2) * scale
+    fy = (l3t2 * s1 - l2t1 * s2) * scale
+    if on_singular == "raise":
+        return fx, fy
+    if any_singular:
+        fx = np.where(singular, np.nan, fx)
+        fy = np.where(singular, np.nan, fy)
+    return fx, fy, singular
+
+
+def _raise_singular(theta1, theta2, sd, singular, min_sin_delta) -> None:
+    idx = tuple(int(i) for i in np.argwhere(singular)[0]) if singular.ndim else ()
+    where = f" (first at index {idx})" if idx else ""
+    raise SingularPoseError(
+        f"{int(np.count_nonzero(singular))} singular pose(s){where}: "
+        f"theta1 = {np.degrees(theta1[idx]):.6g} deg, theta2 = {np.degrees(theta2[idx]):.6g} deg "
+        f"gives |sin(theta1 - theta2)| = {abs(sd[idx]):.3g}, below the threshold "
+        f"{min_sin_delta:.3g}; the parallelogram is collapsed there. "
+        f"Pass on_singular='mask' to get NaN and a mask instead."
+    )
+
+
+def polar(fx, fy) -> tuple[np.ndarray, np.ndarray]:
+    """Magnitude [N] and direction phi [rad, CCW from +x] of a force (replaces seed Eq. 13).
+
+    >>> m, phi = polar(0.0, -2.0)
+    >>> float(m), float(np.degrees(phi))
+    (2.0, -90.0)
+    """
+    fx, fy = as_float_arrays(fx=fx, fy=fy)
+    return np.hypot(fx, fy), np.arctan2(fy, fx)
+
+
+def cartesian(magnitude, phi) -> tuple[np.ndarray, np.ndarray]:
+    """Force components (fx, fy) [N] from magnitude [N] and direction phi [rad]."""
+    magnitude, phi = as_float_arrays(magnitude=magnitude, phi=phi)
+    return magnitude * np.cos(phi), magnitude * np.sin(phi)
