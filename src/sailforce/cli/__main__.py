@@ -1,0 +1,5 @@
+"""``python -m sailforce.cli``."""
+
+from . import main
+
+main()

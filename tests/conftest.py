@@ -1,0 +1,23 @@
+"""Shared strategies and fixtures."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import strategies as st
+
+from sailforce import Arm
+
+#: Angles drawn for property tests [rad]; wider than a turn to exercise wrapping.
+angles = st.floats(min_value=-2 * np.pi, max_value=2 * np.pi, allow_nan=False)
+
+#: Link lengths [m] of plausible desk-top to floor-standing arms.
+lengths = st.floats(min_value=0.05, max_value=2.0, allow_nan=False)
+
+
+@st.composite
+def arms(draw) -> Arm:
+    """A random valid arm: l4 = l2 and l3 > l1."""
+    l1 = draw(lengths)
+    l2 = draw(lengths)
+    l3 = l1 + draw(st.floats(min_value=0.01, max_value=1.0))
+    return Arm(l1=l1, l2=l2, l3=l3, l4=l2)

@@ -1,0 +1,75 @@
+"""Robot files and the Arm's own checks."""
+
+from __future__ import annotations
+
+import pytest
+
+from sailforce import Arm, GeometryError, RobotFileError
+from sailforce.robotfile import load_robot_file, template, write_template
+
+
+def test_template_round_trips_to_the_default_arm(tmp_path):
+    path = write_template(tmp_path / "robot.toml")
+    assert Arm.from_toml(path) == Arm()
+
+
+def test_template_is_commented():
+    text = template()
+    assert text.count("#") > 10 and "[links]" in text
+
+
+def test_write_refuses_to_overwrite(tmp_path):
+    path = write_template(tmp_path / "robot.toml")
+    with pytest.raises(RobotFileError, match="already exists; pass --force"):
+        write_template(path)
+    write_template(path, overwrite=True)
+
+
+def test_custom_lengths(tmp_path):
+    path = tmp_path / "r.toml"
+    path.write_text("[links]\nl1 = 0.25\nl2 = 0.4\nl3 = 0.6\nl4 = 0.4\n")
+    assert Arm.from_toml(path) == Arm(l1=0.25, l2=0.4, l3=0.6, l4=0.4)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\n", "missing l4"),
+        ("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\nl5 = 1\n", "unknown key.*l5"),
+        ("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.31\n", "l4 = 0.31 m must equal l2"),
+        ("[links]\nl1 = 0.5\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n", "l3 = 0.45 m must exceed l1"),
+        ("[links]\nl1 = -0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n", "positive and finite"),
+        ("[links]\nl1 = 'long'\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n", "l1 = 'long': expected a length"),
+        ("[links]\nl1 = nan\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n", "positive and finite"),
+        ("[linkz]\nl1 = 0.2\n", "unknown section.*linkz"),
+        ("title = 'arm'\n", "unknown section"),
+        ("", "missing the \\[links\\] table"),
+        ("[links\nl1 = 0.2\n", "not valid TOML"),
+    ],
+)
+def test_bad_files_are_refused_with_the_file_named(tmp_path, text, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(RobotFileError, match=message) as info:
+        load_robot_file(path)
+    assert str(path) in str(info.value)
+
+
+def test_missing_file_says_how_to_make_one(tmp_path):
+    with pytest.raises(RobotFileError, match="no such file; `sail robot init"):
+        Arm.from_toml(tmp_path / "nope.toml")
+
+
+@pytest.mark.parametrize("kwargs", [{"l1": 0.0}, {"l2": -1.0, "l4": -1.0}, {"l3": float("inf")}, {"l1": True}])
+def test_arm_rejects_impossible_lengths(kwargs):
+    with pytest.raises(GeometryError):
+        Arm(**kwargs)
+
+
+def test_arm_is_frozen():
+    with pytest.raises(AttributeError):
+        Arm().l1 = 1.0  # type: ignore[misc]
+
+
+def test_arm_accepts_integers_as_floats():
+    assert Arm(l1=1, l2=2, l3=3, l4=2).l3 == 3.0
