@@ -1,0 +1,221 @@
+"""Assembly, solution and recovery of a 2-D frame over a batch of configurations.
+
+A :class:`Frame` fixes the topology and the members' local stiffness, which do
+not change with the pose; only the members' directions do, and every member
+points along one of a few *axes* (for the SAIL arm: theta1 or theta2).
+
+**Assembly by basis.**  With T = c Tc + s Ts + T1 (Tc, Ts and T1 constant
+0/1 patterns of the rotation matrix), each member's global stiffness
+T^T k T is a fixed combination of the monomials (c^2, cs, s^2, c, s, 1) of
+its axis angle.  So the stacked global stiffness of N configurations is
+
+    K(pose) = sum_m  monomial_m(pose) * G_m,
+
+with the basis matrices G_m assembled once, when the frame is made, and the
+sum for all poses done as one matrix product.  The solve is one stacked
+LAPACK call; recovery rotates translations elementwise.  Nothing loops in
+Python over the batch, except that very large batches are cut into chunks of
+:data:`CHUNK` configurations to bound memory.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ShapeError
+
+#: Configurations per stacked solve: a chunk of 33-DOF systems is ~36 MB;
+#: larger chunks bring no speed, smaller ones lose to per-call overhead.
+CHUNK = 4096
+
+GROUND = -1  #: the second DOF of a spring anchored to the ground
+
+_MONOMIALS = 5  # c^2, cs, s^2, c, s per axis; the constant term is shared
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Topology and pose-independent stiffness of a 2-D frame; make one with :func:`make_frame`.
+
+    - ``element_dofs``: ``(E, 6)`` global DOF numbers of each member's
+      (u_i, v_i, r_i, u_j, v_j, r_j);
+    - ``element_axis``: ``(E,)`` which axis angle each member points along;
+    - ``local_k``: ``(E, 6, 6)`` member stiffness in local axes;
+    - ``fixed``: ``(n_dofs,)`` True where a DOF is held at zero;
+    - ``springs``: ``(S, 2)`` DOF pairs joined by linear springs, the second
+      :data:`GROUND` for a spring to ground, with stiffness ``spring_k (S,)``;
+    - ``basis``: ``(5 n_axes + 1, n_free, n_free)`` the stiffness basis
+      restricted to the free DOFs.
+    """
+
+    n_dofs: int
+    n_axes: int
+    element_dofs: np.ndarray
+    element_axis: np.ndarray
+    local_k: np.ndarray
+    fixed: np.ndarray
+    springs: np.ndarray
+    spring_k: np.ndarray
+    basis: np.ndarray
+
+    @property
+    def n_elements(self) -> int:
+        return self.element_dofs.shape[0]
+
+
+@dataclass(frozen=True)
+class FrameSolution:
+    """Stacked results for N configurations and L load cases.
+
+    - ``displacements``: ``(N, n_dofs, L)``, global axes;
+    - ``end_forces``: ``(N, E, 6, L)``, the forces the nodes exert on each
+      member, in the member's local axes, ordered as its DOFs;
+    - ``angles``: ``(N, n_axes)``, the configurations solved.
+    """
+
+    displacements: np.ndarray
+    end_forces: np.ndarray
+    angles: np.ndarray
+
+
+def _patterns() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    tc, ts, t1 = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros((6, 6))
+    for o in (0, 3):
+        tc[o, o] = tc[o + 1, o + 1] = 1.0
+        ts[o, o + 1], ts[o + 1, o] = 1.0, -1.0
+        t1[o + 2, o + 2] = 1.0
+    return tc, ts, t1
+
+
+def member_basis(local_k: np.ndarray) -> np.ndarray:
+    """The six matrices B_m with T^T k T = sum_m monomial_m B_m, monomials (c^2, cs, s^2, c, s, 1).
+
+    ``local_k`` is ``(..., 6, 6)``; the result is ``(..., 6, 6, 6)`` with the
+    monomial axis third from last.
+    """
+    tc, ts, t1 = _patterns()
+
+    def sandwich(a, b):
+        return a.T @ local_k @ b
+
+    terms = [
+        sandwich(tc, tc),
+        sandwich(tc, ts) + sandwich(ts, tc),
+        sandwich(ts, ts),
+        sandwich(tc, t1) + sandwich(t1, tc),
+        sandwich(ts, t1) + sandwich(t1, ts),
+        sandwich(t1, t1),
+    ]
+    return np.stack(terms, axis=-3)
+
+
+def make_frame(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, springs=(), spring_k=()) -> Frame:
+    """Check a frame's description and assemble its stiffness basis."""
+    element_dofs = np.asarray(element_dofs, dtype=int)
+    element_axis = np.asarray(element_axis, dtype=int)
+    local_k = np.asarray(local_k, dtype=float)
+    fixed = np.asarray(fixed, dtype=bool)
+    springs = np.asarray(springs, dtype=int).reshape(-1, 2)
+    spring_k = np.asarray(spring_k, dtype=float).reshape(-1)
+    if element_dofs.ndim != 2 or element_dofs.shape[1] != 6 or local_k.shape != (len(element_dofs), 6, 6):
+        raise ShapeError(f"expected element_dofs (E, 6) and local_k (E, 6, 6), got {element_dofs.shape}, {local_k.shape}")
+    if fixed.shape != (n_dofs,) or len(springs) != len(spring_k):
+        raise ShapeError("fixed must have one flag per DOF and springs one stiffness each")
+
+    full = np.zeros((_MONOMIALS * n_axes + 1, n_dofs, n_dofs))
+    blocks = member_basis(local_k)  # (E, 6, 6, 6)
+    for e, dofs in enumerate(element_dofs):  # a member's six DOFs are distinct
+        rows = [_MONOMIALS * element_axis[e] + m for m in range(_MONOMIALS)] + [-1]
+        for m, row in enumerate(rows):
+            full[row][np.ix_(dofs, dofs)] += blocks[e, m]
+    for (a, b), k in zip(springs, spring_k):
+        full[-1, a, a] += k
+        if b != GROUND:
+            full[-1, b, b] += k
+            full[-1, a, b] -= k
+            full[-1, b, a] -= k
+    free = ~fixed
+    basis = full[:, free][:, :, free]
+    return Frame(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, springs, spring_k, basis)
+
+
+def monomials(angles: np.ndarray) -> np.ndarray:
+    """``(N, 5 n_axes + 1)``: (c^2, cs, s^2, c, s) for each axis angle, then 1."""
+    c, s = np.cos(angles), np.sin(angles)
+    per_axis = np.stack([c * c, c * s, s * s, c, s], axis=-1).reshape(len(angles), -1)
+    return np.concatenate([per_axis, np.ones((len(angles), 1))], axis=1)
+
+
+def assemble(frame: Frame, angles: np.ndarray) -> np.ndarray:
+    """Stacked stiffness over the free DOFs, ``(N, n_free, n_free)``, for axis angles ``(N, n_axes)``."""
+    n_free = frame.basis.shape[-1]
+    flat = monomials(angles) @ frame.basis.reshape(len(frame.basis), -1)
+    return flat.reshape(len(angles), n_free, n_free)
+
+
+def solve(frame: Frame, angles, loads) -> FrameSolution:
+    """Solve K u = F for every configuration and load case.
+
+    ``angles``: ``(N, n_axes)`` axis angles [rad]; ``loads``: ``(n_dofs, L)``,
+    the same for every configuration.
+    """
+    angles = np.asarray(angles, dtype=float)
+    if angles.ndim != 2 or angles.shape[1] != frame.n_axes:
+        raise ShapeError(f"angles: expected shape (N, {frame.n_axes}), got {angles.shape}")
+    loads = np.asarray(loads, dtype=float)
+    if loads.ndim != 2 or loads.shape[0] != frame.n_dofs:
+        raise ShapeError(f"loads: expected shape ({frame.n_dofs}, L), got {loads.shape}")
+    parts = [_solve_chunk(frame, angles[s : s + CHUNK], loads) for s in range(0, len(angles), CHUNK)]
+    if not parts:
+        n_loads = loads.shape[1]
+        return FrameSolution(np.zeros((0, frame.n_dofs, n_loads)), np.zeros((0, frame.n_elements, 6, n_loads)), angles)
+    displacements, forces = (np.concatenate(arrays) for arrays in zip(*parts))
+    return FrameSolution(displacements, forces, angles)
+
+
+def _solve_chunk(frame: Frame, angles: np.ndarray, loads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    free = ~frame.fixed
+    K = assemble(frame, angles)
+    u = np.zeros((len(angles), frame.n_dofs, loads.shape[1]))
+    u[:, free] = np.linalg.solve(K, np.broadcast_to(loads[free], (len(angles),) + loads[free].shape))
+    return u, end_forces(frame, angles, u)
+
+
+def end_forces(frame: Frame, angles: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Member end forces in local axes ``(N, E, 6, L)`` from global displacements ``(N, n_dofs, L)``."""
+    theta = angles[:, frame.element_axis][..., None]  # (N, E, 1)
+    c, s = np.cos(theta), np.sin(theta)
+    g = u[:, frame.element_dofs]  # (N, E, 6, L)
+    local = np.empty_like(g)
+    for o in (0, 3):  # u_local = R u_global, translations only
+        local[:, :, o] = c * g[:, :, o] + s * g[:, :, o + 1]
+        local[:, :, o + 1] = -s * g[:, :, o] + c * g[:, :, o + 1]
+        local[:, :, o + 2] = g[:, :, o + 2]
+    return np.einsum("eab,nebl->neal", frame.local_k, local, optimize=True)
+
+
+def reactions(frame: Frame, solution: FrameSolution, loads: np.ndarray) -> np.ndarray:
+    """Support reactions ``(N, n_dofs, L)``: the force each support or ground spring
+    exerts on the frame; zero at DOFs with neither.
+
+    By node equilibrium, a support's reaction is the sum of the end forces its
+    members carry there, rotated to global axes, less the applied load.
+    """
+    n, _, n_loads = solution.displacements.shape
+    theta = solution.angles[:, frame.element_axis]
+    c, s = np.cos(theta)[..., None], np.sin(theta)[..., None]
+    f = solution.end_forces
+    glob = np.empty_like(f)
+    for o in (0, 3):  # F_global = R^T F_local
+        glob[:, :, o] = c * f[:, :, o] - s * f[:, :, o + 1]
+        glob[:, :, o + 1] = s * f[:, :, o] + c * f[:, :, o + 1]
+        glob[:, :, o + 2] = f[:, :, o + 2]
+    total = np.zeros((n, frame.n_dofs, n_loads))
+    for e, dofs in enumerate(frame.element_dofs):
+        total[:, dofs] += glob[:, e]
+    supported = frame.fixed.copy()
+    supported[frame.springs[frame.springs[:, 1] == GROUND, 0]] = True
+    return np.where(supported[None, :, None], total - loads, 0.0)
+
