@@ -73,3 +73,54 @@ def test_arm_is_frozen():
 
 def test_arm_accepts_integers_as_floats():
     assert Arm(l1=1, l2=2, l3=3, l4=2).l3 == 3.0
+
+
+def test_structure_sections_are_read(tmp_path):
+    from sailforce.robot import Robot
+
+    path = tmp_path / "r.toml"
+    path.write_text(
+        "[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n"
+        "[sections]\ndepth = 0.03\n"
+        "[materials.links]\nE = 7.0e10\n"
+        "[loadcells]\nposition = 0.4\ncapacity_kg = 20\ndepth = 0.015\n"
+        "[joints]\nmodel = \"spring\"\nstiffness = 12.5\n"
+        "[motors]\nmodel = \"gearbox\"\n"
+    )
+    robot = load_robot_file(path).robot
+    default = Robot()
+    assert robot.link_section.depth == 0.03 and robot.link_section.thickness == default.link_section.thickness
+    assert robot.link_material.E == 7.0e10 and robot.link_material.nu == default.link_material.nu
+    assert robot.loadcell.position == 0.4 and robot.loadcell.capacity_kg == 20
+    assert robot.loadcell.block.depth == 0.015 and robot.loadcell.block.thickness == default.loadcell.block.thickness
+    assert (robot.joints.model, robot.joints.stiffness) == ("spring", 12.5)
+    assert robot.motors.model == "gearbox" and robot.motors.stiffness == default.motors.stiffness
+
+
+def test_links_only_file_gets_structure_defaults(tmp_path):
+    from sailforce.robot import Robot
+
+    path = tmp_path / "r.toml"
+    path.write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n")
+    assert load_robot_file(path).robot == Robot()
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("[joints]\nmodel = \"welded\"\n", "joints model = 'welded': expected one of pin, bonded, spring"),
+        ("[joints]\nmodel = 3\n", "expected a quoted name"),
+        ("[loadcells]\ncapacity = 50\n", "\\[loadcells\\] has unknown key\\(s\\) capacity"),
+        ("[loadcells]\nposition = 0.01\n", "does not fit inside l1"),
+        ("[motors]\nstiffness = -1\n", "motors stiffness"),
+        ("[materials.links]\nE = \"steel\"\n", "E = 'steel': expected a number"),
+        ("[materials.steel]\nE = 1\n", "\\[materials\\] has unknown key\\(s\\) steel"),
+        ("[sections]\ndepth = 0\n", "section depth"),
+    ],
+)
+def test_bad_structure_sections_are_refused(tmp_path, extra, message):
+    path = tmp_path / "r.toml"
+    path.write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n" + extra)
+    with pytest.raises(RobotFileError, match=message) as info:
+        load_robot_file(path)
+    assert str(path) in str(info.value)

@@ -13,15 +13,33 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from dataclasses import replace
+
 from .arm import Arm
 from .errors import GeometryError, RobotFileError
+from .materials import RectangularSection
+from .robot import Robot
 
 LINK_KEYS = ("l1", "l2", "l3", "l4")
-KNOWN_SECTIONS = ("links",)
+MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
+LOADCELL_KEYS = ("capacity_kg", "rated_deflection", "length", "position", "depth", "thickness",
+                 "rated_output_mV_V", "crosstalk_axial", "crosstalk_moment")  # fmt: skip
+#: Each optional section and the keys it may hold; ``links`` is required.
+SECTIONS = {
+    "links": LINK_KEYS,
+    "sections": ("depth", "thickness"),
+    "materials": ("links", "loadcells"),
+    "loadcells": LOADCELL_KEYS,
+    "joints": ("model", "stiffness"),
+    "motors": ("model", "stiffness"),
+}
+KNOWN_SECTIONS = tuple(SECTIONS)
 
 TEMPLATE = """\
 # sailforce robot file: one SAIL parallelogram arm.
-# Units are SI throughout (metres).  Angles are measured counter-clockwise from +x.
+# Units are SI throughout (m, N, Pa, kg).  Angles are counter-clockwise from +x.
+# Only [links] is required; every other section may be left out, and each key
+# left out keeps the default shown here.
 #
 #   P2 o-----------o P3 ------------o A   (end effector)
 #      |    l1     |
@@ -39,6 +57,41 @@ l1 = {l1}   # m, B to P1, driven by theta1
 l2 = {l2}   # m, B to P2, driven by theta2
 l3 = {l3}  # m, P2 through P3 to the end effector A; must exceed l1 (|P2 P3| = l1)
 l4 = {l4}   # m, P1 to P3; must equal l2
+
+[sections]          # rectangular cross-section of all four links
+depth = {depth}     # m, in the plane of motion (bending depth)
+thickness = {thickness}  # m, out of the plane
+
+[materials.links]   # seed Table 2: plain carbon steel
+E = {steel_E:g}            # Pa
+nu = {steel_nu}              # -
+rho = {steel_rho:g}            # kg/m^3
+yield_strength = {steel_yield:g}  # Pa
+
+[materials.loadcells]  # seed Table 3: 7075-T6 aluminium
+E = {al_E:g}
+nu = {al_nu}
+rho = {al_rho:g}
+yield_strength = {al_yield:g}
+
+[loadcells]         # MT1041-like single-axis bending-beam cells, one per driven link
+capacity_kg = {capacity_kg:g}        # rated capacity
+rated_deflection = {rated_deflection:g}  # m, far-face deflection at capacity (sets the cell's bending stiffness)
+length = {length:g}            # m, the gap in the link that the cell bridges
+position = {position:g}            # centre of the gap, as a fraction of l1 (and of l2) from B
+depth = {cell_depth:g}             # m, solid block section (axial and shear stiffness, nominal stress)
+thickness = {cell_thickness:g}
+rated_output_mV_V = {rated_output:g}    # bridge output at capacity
+crosstalk_axial = {xa:g}       # bridge output per rated output, per unit (axial force / capacity)
+crosstalk_moment = {xm:g}      # ... per unit (moment / (capacity x length))
+
+[joints]            # the passive joints P1, P2, P3
+model = "{joints}"       # "pin" (ideal revolute), "bonded" (rigid, SolidWorks' default contact) or "spring"
+stiffness = {joint_k:g}    # N m/rad, used by "spring"
+
+[motors]            # the motors at B
+model = "{motors}"    # "locked" (clamped) or "gearbox" (torsional spring to ground)
+stiffness = {motor_k:g}    # N m/rad, used by "gearbox"
 """
 
 
@@ -47,13 +100,27 @@ class RobotFile:
     """A parsed robot file."""
 
     path: Path
-    arm: Arm
+    robot: Robot
+
+    @property
+    def arm(self) -> Arm:
+        return self.robot.arm
 
 
-def template(arm: Arm | None = None) -> str:
-    """The commented robot-file text for ``arm`` (the default robot if None)."""
-    arm = arm or Arm()
-    return TEMPLATE.format(l1=arm.l1, l2=arm.l2, l3=arm.l3, l4=arm.l4)
+def template(robot: Robot | None = None) -> str:
+    """The commented robot-file text for ``robot`` (the default robot if None)."""
+    r = robot or Robot()
+    cell, steel, al = r.loadcell, r.link_material, r.loadcell.material
+    return TEMPLATE.format(
+        l1=r.arm.l1, l2=r.arm.l2, l3=r.arm.l3, l4=r.arm.l4,
+        depth=r.link_section.depth, thickness=r.link_section.thickness,
+        steel_E=steel.E, steel_nu=steel.nu, steel_rho=steel.rho, steel_yield=steel.yield_strength,
+        al_E=al.E, al_nu=al.nu, al_rho=al.rho, al_yield=al.yield_strength,
+        capacity_kg=cell.capacity_kg, rated_deflection=cell.rated_deflection, length=cell.length,
+        position=cell.position, cell_depth=cell.block.depth, cell_thickness=cell.block.thickness,
+        rated_output=cell.rated_output_mV_V, xa=cell.crosstalk_axial, xm=cell.crosstalk_moment,
+        joints=r.joints.model, joint_k=r.joints.stiffness, motors=r.motors.model, motor_k=r.motors.stiffness,
+    )  # fmt: skip
 
 
 def write_template(path: str | Path, *, overwrite: bool = False) -> Path:
@@ -80,15 +147,68 @@ def load_robot_file(path: str | Path) -> RobotFile:
         raise RobotFileError(f"{path}: cannot read ({exc.strerror})") from None
     except tomllib.TOMLDecodeError as exc:
         raise RobotFileError(f"{path}: not valid TOML: {exc}") from None
-    return RobotFile(path=path, arm=_parse_links(path, data))
-
-
-def _parse_links(path: Path, data: dict[str, Any]) -> Arm:
     unknown = sorted(set(data) - set(KNOWN_SECTIONS))
     if unknown:
         raise RobotFileError(
             f"{path}: unknown section(s) {', '.join(unknown)}; known: {', '.join(KNOWN_SECTIONS)}"
         )
+    arm = _parse_links(path, data)
+    try:
+        robot = _parse_structure(path, data, arm)
+    except GeometryError as exc:
+        raise RobotFileError(f"{path}: {exc}") from None
+    return RobotFile(path=path, robot=robot)
+
+
+def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | None = None) -> dict[str, Any]:
+    """An optional table, checked for unknown keys and non-numeric values."""
+    table = data.get(name, {})
+    label = name
+    if not isinstance(table, dict):
+        raise RobotFileError(f"{path}: [{label}] must be a table")
+    allowed = keys if keys is not None else SECTIONS[name.split(".")[0]]
+    extra = sorted(set(table) - set(allowed))
+    if extra:
+        raise RobotFileError(f"{path}: [{label}] has unknown key(s) {', '.join(extra)}; expected {', '.join(allowed)}")
+    for key, value in table.items():
+        if key == "model" or isinstance(value, dict):
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise RobotFileError(f"{path}: [{label}] {key} = {value!r}: expected a number")
+    return table
+
+
+def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
+    default = Robot(arm=arm)
+    sections = _table(path, data, "sections")
+    materials = _table(path, data, "materials")
+    link_mat = _table(path, materials, "links", MATERIAL_KEYS) if "links" in materials else {}
+    cell_mat = _table(path, materials, "loadcells", MATERIAL_KEYS) if "loadcells" in materials else {}
+    cells = _table(path, data, "loadcells")
+    joints = _table(path, data, "joints")
+    motors = _table(path, data, "motors")
+    for name, table in (("joints", joints), ("motors", motors)):
+        if "model" in table and not isinstance(table["model"], str):
+            raise RobotFileError(f"{path}: [{name}] model = {table['model']!r}: expected a quoted name")
+
+    cell_default = default.loadcell
+    cell_block = RectangularSection(
+        cells.get("depth", cell_default.block.depth), cells.get("thickness", cell_default.block.thickness)
+    )
+    cell_fields = {k: cells[k] for k in LOADCELL_KEYS if k in cells and k not in ("depth", "thickness")}
+    return Robot(
+        arm=arm,
+        link_section=replace(default.link_section, **sections),
+        link_material=replace(default.link_material, **link_mat),
+        loadcell=replace(
+            cell_default, block=cell_block, material=replace(cell_default.material, **cell_mat), **cell_fields
+        ),
+        joints=replace(default.joints, **joints),
+        motors=replace(default.motors, **motors),
+    )
+
+
+def _parse_links(path: Path, data: dict[str, Any]) -> Arm:
     links = data.get("links")
     if not isinstance(links, dict):
         raise RobotFileError(f"{path}: missing the [links] table with keys {', '.join(LINK_KEYS)}")
