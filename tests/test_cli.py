@@ -23,7 +23,7 @@ def test_version():
     assert result.exit_code == 0 and __version__ in result.output
 
 
-@pytest.mark.parametrize("command", [[], ["statics"], ["robot"], ["robot", "init"], ["robot", "show"], ["demo"]])
+@pytest.mark.parametrize("command", [[], ["statics"], ["robot"], ["robot", "init"], ["robot", "show"], ["demo"], ["simulate"], ["stress"]])
 def test_every_command_has_help(command):
     result = run(*command, "--help")
     assert result.exit_code == 0 and "Usage:" in result.output
@@ -117,3 +117,63 @@ def test_console_script_is_installed():
         [sys.executable, "-m", "sailforce.cli", "--version"], capture_output=True, text=True, check=False
     )
     assert completed.returncode == 0 and __version__ in completed.stdout
+
+
+def _csv(path):
+    import csv
+
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_simulate_writes_rows_and_sidecar(tmp_path):
+    out = tmp_path / "sweep.csv"
+    result = run("simulate", "--theta1-deg=15:120:15", "--theta2-deg=0", "--phi-deg=0:345:15", "--force-N=10",
+                 "--transduction=bridge", "-o", str(out))  # fmt: skip
+    assert result.exit_code == 0, result.output
+    rows = _csv(out)
+    assert len(rows) == 8 * 24
+    assert list(rows[0]) == ["theta1_deg", "theta2_deg", "phi_deg", "fx_N", "fy_N", "load1", "load2", "t1_Nm", "t2_Nm"]
+    sidecar = json.loads(out.with_suffix(".json").read_text())
+    assert sidecar["units"]["load1"] == "mV/V" and sidecar["rows"] == 192 and sidecar["overloaded_rows"] == 0
+    # Default robot, pin joints: torques are J^T F, and the bridge reads T_i / l_i.
+    arm = Arm()
+    for row in rows[::17]:
+        th1, th2 = math.radians(float(row["theta1_deg"])), math.radians(float(row["theta2_deg"]))
+        t1, t2 = arm.joint_torques(th1, th2, float(row["fx_N"]), float(row["fy_N"]))
+        assert float(row["t1_Nm"]) == pytest.approx(float(t1), abs=1e-9)
+        assert float(row["t2_Nm"]) == pytest.approx(float(t2), abs=1e-9)
+        assert float(row["load1"]) == pytest.approx(2.0 / (50 * 9.80665) * float(t1) / arm.l1, abs=1e-11)
+
+
+def test_simulate_warns_on_overload(tmp_path):
+    out = tmp_path / "big.csv"
+    result = CliRunner().invoke(cli, ["simulate", "--theta1-deg=90", "--theta2-deg=0", "--phi-deg=90", "--force-N=2000", "-o", str(out)])
+    assert result.exit_code == 0
+    assert "beyond its 490.3 N capacity" in result.output
+    assert json.loads(out.with_suffix(".json").read_text())["overloaded_rows"] == 1
+
+
+@pytest.mark.parametrize(
+    "args, code, message",
+    [
+        (["--theta1-deg=30", "--theta2-deg=30"], 1, "collapsed"),
+        (["--theta1-deg=30:10:5", "--theta2-deg=0"], 2, "never goes from 30 to 10"),
+        (["--theta1-deg=1:2:3:4", "--theta2-deg=0"], 2, "three numbers"),
+        (["--theta1-deg=30", "--theta2-deg=0", "--force-N=nan"], 2, "finite"),
+    ],
+)
+def test_simulate_refuses_bad_sweeps_and_keeps_old_output(tmp_path, args, code, message):
+    out = tmp_path / "keep.csv"
+    out.write_text("precious\n")
+    result = CliRunner().invoke(cli, ["simulate", *args, "-o", str(out)])
+    assert result.exit_code == code and message in result.output
+    assert out.read_text() == "precious\n"
+
+
+def test_stress_draws_a_figure(tmp_path):
+    out = tmp_path / "fig4.png"
+    result = run("stress", "--joints=bonded", "--phi-deg=0:315:45", "-o", str(out))
+    assert result.exit_code == 0, result.output
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20_000
+    assert "smallest yield safety factor" in result.output

@@ -7,6 +7,9 @@ from pathlib import Path
 import click
 
 from ..arm import Arm
+from ..robot import JOINT_MODELS, Robot
+from ..robotfile import load_robot_file
+from ..sweep import parse_spec
 
 
 def robot_option(func):
@@ -20,6 +23,36 @@ def robot_option(func):
     )(func)
 
 
+def joints_option(func):
+    """``--joints``: overrides the robot file's joint model."""
+    return click.option(
+        "--joints",
+        type=click.Choice(JOINT_MODELS),
+        default=None,
+        help="Passive-joint model; overrides the robot file (default there: pin).",
+    )(func)
+
+
 def load_arm(robot_path: Path | None) -> Arm:
     """The arm described by ``--robot``, or the default :class:`Arm`."""
     return Arm() if robot_path is None else Arm.from_toml(robot_path)
+
+
+def load_robot(robot_path: Path | None, joints: str | None = None) -> Robot:
+    """The structure described by ``--robot`` (default robot if None), with ``--joints`` applied."""
+    robot = Robot() if robot_path is None else load_robot_file(robot_path).robot
+    return robot if joints is None else robot.with_joints(joints)
+
+
+def spec(name: str):
+    """A click callback reading a sweep SPEC (``A`` or ``start:stop:step``) in degrees."""
+
+    def callback(ctx, param, value):
+        if value is None:
+            return None
+        try:
+            return parse_spec(value, name)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc)) from None
+
+    return callback

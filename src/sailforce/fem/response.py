@@ -120,9 +120,11 @@ def _apply(unit: np.ndarray, fx, fy) -> np.ndarray:
 
 @dataclass(frozen=True)
 class MemberStresses:
-    """Internal forces and beam-theory stresses at both ends of every member.
+    """Internal forces and beam-theory stresses at points along every member.
 
-    Arrays are ``(..., E, 2)``, the last axis the member's ends i and j.
+    Arrays are ``(..., E, P)``: P equally spaced points from each member's
+    node i (first) to node j (last).  N and V are constant along a member
+    without interior load and M is linear, so the values are exact.
     ``von_mises`` is the larger of the extreme fibre (|N|/A + |M|/S, no shear
     there) and the neutral axis (sqrt((N/A)^2 + 3 (1.5 V/A)^2)) of a solid
     rectangle.  Load cells use their solid block, so their stress is nominal:
@@ -144,21 +146,25 @@ class MemberStresses:
             return np.where(worst > 0, self.yield_strength / np.where(worst > 0, worst, 1.0), np.inf)
 
 
-def member_stresses(response: ArmResponse, fx, fy) -> MemberStresses:
-    """Internal forces and stresses of every member for the end-effector force (fx, fy) [N]."""
+def member_stresses(response: ArmResponse, fx, fy, points: int = 2) -> MemberStresses:
+    """Internal forces and stresses of every member for the end-effector force (fx, fy) [N].
+
+    ``points`` >= 2 samples per member, ends included (2: just the ends).
+    """
     fx = np.asarray(fx, dtype=float)[..., None, None]  # broadcast over (member, end-force component)
     fy = np.asarray(fy, dtype=float)[..., None, None]
     f = response.end_forces[..., 0] * fx + response.end_forces[..., 1] * fy  # (..., E, 6)
-    axial = np.stack([f[..., 3], f[..., 3]], axis=-1)
-    shear = np.stack([f[..., 4], f[..., 4]], axis=-1)
-    moment = np.stack([-f[..., 2], f[..., 5]], axis=-1)
-    robot = response.model.robot
-    area, modulus, strength = _section_table(robot)
-    sigma_axial = np.abs(axial) / area[:, None]
-    normal = sigma_axial + np.abs(moment) / modulus[:, None]
-    tau = 1.5 * np.abs(shear) / area[:, None]
+    t = np.linspace(0.0, 1.0, max(int(points), 2))
+    ones = np.ones_like(t)
+    axial = f[..., 3:4] * ones
+    shear = f[..., 4:5] * ones
+    moment = -f[..., 2:3] * (1.0 - t) + f[..., 5:6] * t
+    area, modulus, strength = (a[:, None] for a in _section_table(response.model.robot))
+    sigma_axial = np.abs(axial) / area
+    normal = sigma_axial + np.abs(moment) / modulus
+    tau = 1.5 * np.abs(shear) / area
     von_mises = np.maximum(normal, np.sqrt(sigma_axial**2 + 3.0 * tau**2))
-    return MemberStresses(axial, shear, moment, normal, von_mises, strength)
+    return MemberStresses(axial, shear, moment, normal, von_mises, strength[:, 0])
 
 
 def _section_table(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,0 +1,1 @@
+"""Figures and reports.  Plotting lives here and nowhere else in the package."""
