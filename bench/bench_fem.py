@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from _timing import best_of
 
 from sailforce.fem.model import build_model
 from sailforce.fem.pynite_check import solve_with_pynite
@@ -16,15 +15,6 @@ N_BATCH = 50_000
 N_PYNITE = 10  # PyNite builds and solves one model per pose; a few give its rate
 TARGET_PER_S = 50_000
 TARGET_RATIO = 1_000
-
-
-def _best_of(repeats: int, func) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def _full_outputs(model, theta1, theta2):
@@ -41,9 +31,9 @@ def run() -> list[tuple[str, str]]:
     timoshenko = build_model(robot)
     euler = build_model(robot, shear_deformation=False)
     _full_outputs(timoshenko, theta1[:8], theta2[:8])  # warm-up
-    t_timo = _best_of(3, lambda: _full_outputs(timoshenko, theta1, theta2))
-    t_euler = _best_of(3, lambda: _full_outputs(euler, theta1, theta2))
-    t_pynite = _best_of(1, lambda: [solve_with_pynite(euler, theta1[i], theta2[i]) for i in range(N_PYNITE)])
+    t_timo = best_of(3, lambda: _full_outputs(timoshenko, theta1, theta2))
+    t_euler = best_of(3, lambda: _full_outputs(euler, theta1, theta2))
+    t_pynite = best_of(1, lambda: [solve_with_pynite(euler, theta1[i], theta2[i]) for i in range(N_PYNITE)])
     rate_timo, rate_euler, rate_pynite = N_BATCH / t_timo, N_BATCH / t_euler, N_PYNITE / t_pynite
     rows += [
         ("sailforce, Timoshenko, default arm, 5e4 poses", f"{rate_timo:10.0f} poses/s"),
@@ -55,7 +45,7 @@ def run() -> list[tuple[str, str]]:
     ]  # fmt: skip
     for joints in ("bonded",):
         model = build_model(robot.with_joints(joints))
-        t = _best_of(3, lambda: _full_outputs(model, theta1, theta2))
+        t = best_of(3, lambda: _full_outputs(model, theta1, theta2))
         rows.append((f"sailforce, Timoshenko, {joints} joints", f"{N_BATCH / t:10.0f} poses/s"))
 
     # The seed's two sweeps: 8 poses x 24 force angles each, 384 runs in all.
@@ -68,6 +58,6 @@ def run() -> list[tuple[str, str]]:
         for t1, t2 in (sweep1, sweep2):
             sweep_rows(simulate_model(bonded, t1, t2), phi, 10.0, "deflection")
 
-    t_seed = _best_of(5, seed_study)
+    t_seed = best_of(5, seed_study)
     rows.append(("seed's 384-run sweep (SolidWorks: 384 FE runs)", f"{t_seed * 1e3:10.1f} ms"))
     return rows

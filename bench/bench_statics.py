@@ -2,24 +2,14 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from _timing import best_of
 
 from sailforce import Arm
 
 N_BATCH = 10_000_000
 N_LOOP = 20_000  # the loop is ~10^4 times slower; a subset gives its rate
 TARGET_PER_S = 50e6
-
-
-def _best_of(repeats: int, func) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def run() -> list[tuple[str, str]]:
@@ -29,14 +19,14 @@ def run() -> list[tuple[str, str]]:
     theta1 = theta2 + rng.uniform(0.3, 2.8, N_BATCH)
     t1, t2 = rng.normal(size=N_BATCH), rng.normal(size=N_BATCH)
 
-    batch_s = _best_of(3, lambda: arm.end_effector_force(theta1, theta2, t1, t2))
+    batch_s = best_of(3, lambda: arm.end_effector_force(theta1, theta2, t1, t2))
     s1, s2, st1, st2 = (a[:N_LOOP].tolist() for a in (theta1, theta2, t1, t2))
 
     def loop():
         for i in range(N_LOOP):
             arm.end_effector_force(s1[i], s2[i], st1[i], st2[i])
 
-    loop_s = _best_of(1, loop)
+    loop_s = best_of(1, loop)
     batch_rate = N_BATCH / batch_s
     loop_rate = N_LOOP / loop_s
     return [

@@ -163,3 +163,20 @@ def test_polar_round_trip():
     m, phi = polar(*cartesian(np.array([1.0, 2.5]), np.radians([30.0, -120.0])))
     np.testing.assert_allclose(m, [1.0, 2.5], rtol=1e-15)
     np.testing.assert_allclose(np.degrees(phi), [30.0, -120.0], rtol=1e-13)
+
+
+def test_blocks_report_the_global_index_and_mask_across_blocks():
+    from sailforce.statics import BLOCK
+
+    arm = Arm()
+    n = 2 * BLOCK + 10
+    theta1 = np.full(n, np.radians(80.0))
+    bad = BLOCK + 7  # in the second block
+    theta1[bad] = 0.0
+    with pytest.raises(SingularPoseError, match=rf"1 singular pose\(s\) \(first at index \({bad},\)\)"):
+        arm.end_effector_force(theta1, 0.0, 1.0, 2.0)
+    fx, fy, singular = arm.end_effector_force(theta1, 0.0, 1.0, 2.0, on_singular="mask")
+    assert np.flatnonzero(singular).tolist() == [bad]
+    assert np.isnan(fx[bad]) and np.all(np.isfinite(np.delete(fx, bad)))
+    single = arm.end_effector_force(np.radians(80.0), 0.0, 1.0, 2.0)
+    np.testing.assert_array_equal(fx[-1], single[0])

@@ -163,18 +163,17 @@ def load_robot_file(path: str | Path) -> RobotFile:
 def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | None = None) -> dict[str, Any]:
     """An optional table, checked for unknown keys and non-numeric values."""
     table = data.get(name, {})
-    label = name
     if not isinstance(table, dict):
-        raise RobotFileError(f"{path}: [{label}] must be a table")
+        raise RobotFileError(f"{path}: [{name}] must be a table")
     allowed = keys if keys is not None else SECTIONS[name.split(".")[0]]
     extra = sorted(set(table) - set(allowed))
     if extra:
-        raise RobotFileError(f"{path}: [{label}] has unknown key(s) {', '.join(extra)}; expected {', '.join(allowed)}")
+        raise RobotFileError(f"{path}: [{name}] has unknown key(s) {', '.join(extra)}; expected {', '.join(allowed)}")
     for key, value in table.items():
         if key == "model" or isinstance(value, dict):
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise RobotFileError(f"{path}: [{label}] {key} = {value!r}: expected a number")
+            raise RobotFileError(f"{path}: [{name}] {key} = {value!r}: expected a number")
     return table
 
 

@@ -7,6 +7,7 @@ other function takes radians.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -94,9 +95,7 @@ def sweep_rows(response: ArmResponse, phi, force: float, transduction: str) -> d
     signal = response.signal(transduction).reshape(n_pose, 2, 2) @ force_vectors  # (n_pose, 2, n_phi)
     torque = response.torques.reshape(n_pose, 2, 2) @ force_vectors
     shear = response.cell_forces.reshape(n_pose, 2, 3, 2)[:, :, 1] @ force_vectors
-    stresses = member_stresses(
-        _flat(response), fx[None, :], fy[None, :]
-    )  # (n_pose, n_phi, E, 2)
+    stresses = member_stresses(_flat(response), fx[None, :], fy[None, :])  # (n_pose, n_phi, E, 2)
     rows = {
         "theta1_deg": np.repeat(np.degrees(response.theta1.ravel()), n_phi),
         "theta2_deg": np.repeat(np.degrees(response.theta2.ravel()), n_phi),
@@ -116,7 +115,5 @@ def sweep_rows(response: ArmResponse, phi, force: float, transduction: str) -> d
 
 def _flat(response: ArmResponse) -> ArmResponse:
     """The response with its batch flattened to (N, 1) so forces broadcast along a new phi axis."""
-    from dataclasses import replace
-
     n = response.theta1.size
     return replace(response, end_forces=response.end_forces.reshape((n, 1) + response.end_forces.shape[-3:]))

@@ -63,10 +63,6 @@ class ArmResponse:
             return cell.bridge_signal(shear, axial, moment)
         raise ValueError(f"transduction = {transduction!r}: expected one of {', '.join(TRANSDUCTIONS)}")
 
-    def cell_shear(self, fx, fy) -> np.ndarray:
-        """Shear force through each load cell [N], ``(..., 2)``, for the force (fx, fy)."""
-        return _apply(self.cell_forces[..., 1, :], fx, fy)
-
 
 def simulate(robot: Robot, theta1, theta2, *, shear_deformation: bool = True) -> ArmResponse:
     """Solve the SAIL frame of ``robot`` at every pose, for a unit Fx and a unit Fy at A.
@@ -109,13 +105,6 @@ def simulate_model(model: ArmModel, theta1, theta2) -> ArmResponse:
         end_forces=batch(solution.end_forces),
         displacements=batch(solution.displacements),
     )
-
-
-def _apply(unit: np.ndarray, fx, fy) -> np.ndarray:
-    """Superpose unit responses ``(..., 2)`` (last axis: Fx, Fy) for the force (fx, fy)."""
-    fx = np.asarray(fx, dtype=float)[..., None]
-    fy = np.asarray(fy, dtype=float)[..., None]
-    return unit[..., 0] * fx + unit[..., 1] * fy
 
 
 @dataclass(frozen=True)
