@@ -171,7 +171,7 @@ def test_bonded_joints_depart_from_rigid_statics():
     response = simulate(robot, theta1, 0.0)
     jt = _jt(robot.arm, theta1, 0.0)
     departure = np.abs(response.torques - jt).max() / np.abs(jt).max()
-    assert departure > 0.05  # measured 0.66 on the default robot: load shared through bending
+    assert departure > 0.05  # measured 0.47 on these poses of the default robot: load shared through bending
 
 
 def test_stiffer_joint_springs_move_from_pin_towards_bonded():
