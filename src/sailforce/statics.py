@@ -91,7 +91,7 @@ def end_effector_force(
         fx[block], fy[block], singular[block] = _force_block(arm, *(a[block] for a in flat), min_sin_delta)
     if singular.any():
         if on_singular == "raise":
-            _raise_singular(theta1, theta2, singular.reshape(shape), min_sin_delta)
+            raise_singular_pose(theta1, theta2, singular.reshape(shape), min_sin_delta)
         fx[singular] = np.nan
         fy[singular] = np.nan
     fx, fy = fx.reshape(shape)[()], fy.reshape(shape)[()]
@@ -115,7 +115,8 @@ def _force_block(arm: Links, theta1, theta2, t1, t2, min_sin_delta):
     return (l3t2 * c1 - l2t1 * c2) * scale, (l3t2 * s1 - l2t1 * s2) * scale, singular
 
 
-def _raise_singular(theta1, theta2, singular, min_sin_delta) -> None:
+def raise_singular_pose(theta1, theta2, singular, min_sin_delta) -> None:
+    """Raise :class:`SingularPoseError` naming the first pose flagged in ``singular`` and the threshold."""
     idx = tuple(int(i) for i in np.argwhere(singular)[0]) if singular.ndim else ()
     where = f" (first at index {idx})" if idx else ""
     sd = np.sin(theta1[idx] - theta2[idx])

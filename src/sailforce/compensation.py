@@ -1,0 +1,272 @@
+"""Compensators: the map from end-effector force to load-cell signals, and its inversion.
+
+Every sensing model here is linear in the force,
+
+    s = M(theta1, theta2) F,        s = (load1, load2),  F = (Fx, Fy),
+
+with the 2x2 *sensing matrix* M whose row i is the load cell i's response to
+a unit force.  Estimating the force is solving this 2x2 system
+(:func:`estimate_force`).  Three models of M are offered:
+
+- :class:`TorqueScale`: the uncompensated estimator, s_i = T_i / k_i with
+  T = J^T F (seed Eq. 7) and one constant k_i per cell (the seed's
+  "pre-scaling" by 740 and 528).
+- :class:`AmplitudePhaseCompensator`: the seed's compensator (Table 4 and
+  its regressors).  Row i of J^T is rescaled by 1/A_i(delta) and rotated by
+  -P_i(delta).
+- :class:`MatrixCompensator`: the whole map M0(delta) as smooth functions of
+  delta, the extension "beyond the seed".
+
+Amplitude and phase (sign convention)
+-------------------------------------
+For a force of magnitude F at angle phi, a row r gives a sinusoid
+s(phi) = F |r| cos(phi - angle(r)).  Write j_i for row i of J^T, so that the
+predicted torque is T_i(phi) = F |j_i| cos(phi - angle(j_i)).  The amplitude
+A_i and phase P_i of load cell i are defined by
+
+    s_i(phi) = T_i(phi + P_i) / A_i,     i.e.   A_i s_i(phi - P_i) = T_i(phi),
+
+so A_i = |j_i| / |r_i| (torque per signal unit) and P_i = angle(j_i) -
+angle(r_i): a positive P_i means the load-cell curve reaches its peak P_i
+*earlier* in phi than the predicted torque.  Equivalently r_i = R(-P_i) j_i /
+A_i, which is how the compensator rebuilds the sensing matrix.  The seed
+does not state its sign convention; the report compares magnitudes and
+trends with that caveat.
+
+Delta-only dependence (ERRATA.md, Physics): with locked motors and no
+gravity, M(theta1, theta2) = M0(delta) R(-theta2).  Both compensators are
+functions of delta alone in that frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from ._validate import as_float_arrays
+from .errors import SailError
+from .kinematics import Links, jacobian
+from .regressors import PolynomialFit
+from .statics import SINGULAR_SIN_DELTA, raise_singular_pose
+
+
+class CompensationError(SailError):
+    """Data that cannot determine a compensator."""
+
+
+class SensingModel(Protocol):
+    """Anything that gives the sensing matrix M (``(..., 2, 2)``) at a pose [rad]."""
+
+    def sensing_matrix(self, theta1, theta2) -> np.ndarray: ...
+
+
+def rotation(angle) -> np.ndarray:
+    """Counter-clockwise rotation matrices R(angle), shape ``(..., 2, 2)``."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)
+
+
+def torque_rows(arm: Links, theta1, theta2) -> np.ndarray:
+    """J^T, shape ``(..., 2, 2)``: row i maps F to the predicted torque T_i (seed Eqs. 3 and 7)."""
+    return np.swapaxes(jacobian(arm, theta1, theta2), -1, -2)
+
+
+def sinusoid_rows(phi, force: float, signal) -> np.ndarray:
+    """Least-squares sensing rows r from curves s(phi) = F (r_x cos phi + r_y sin phi).
+
+    ``phi`` [rad] has shape ``(P,)``; ``signal`` has shape ``(..., P)``, one
+    curve per leading index; returns ``(..., 2)``, signal per newton.  A
+    least-squares fit over every angle, not peak picking (issue 4): with
+    noise-free linear data it is exact, and with noise it uses all samples.
+    """
+    phi = np.asarray(phi, dtype=float)
+    design = np.stack([np.cos(phi), np.sin(phi)], axis=-1) * force  # (P, 2)
+    if phi.size < 2 or np.linalg.matrix_rank(design) < 2:
+        raise CompensationError(f"force angles {np.degrees(phi).round(3).tolist()} deg cannot separate Fx from Fy")
+    return np.asarray(signal, dtype=float) @ np.linalg.pinv(design).T
+
+
+def amplitude_phase(measured_rows, predicted_rows) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitude A = |j| / |r| and phase P = angle(j) - angle(r) [rad, in (-pi, pi]].
+
+    ``measured_rows`` r and ``predicted_rows`` j have shape ``(..., 2)``; see
+    the module docstring for the convention.
+    """
+    r, j = np.asarray(measured_rows, dtype=float), np.asarray(predicted_rows, dtype=float)
+    amplitude = np.hypot(j[..., 0], j[..., 1]) / np.hypot(r[..., 0], r[..., 1])
+    phase = np.arctan2(j[..., 1], j[..., 0]) - np.arctan2(r[..., 1], r[..., 0])
+    return amplitude, -np.remainder(-phase + np.pi, 2.0 * np.pi) + np.pi
+
+
+def rows_from_amplitude_phase(predicted_rows, amplitude, phase) -> np.ndarray:
+    """The sensing rows r = R(-P) j / A; inverse of :func:`amplitude_phase`, shape ``(..., 2)``."""
+    j = np.asarray(predicted_rows, dtype=float)
+    return (rotation(-np.asarray(phase)) @ j[..., None])[..., 0] / np.asarray(amplitude)[..., None]
+
+
+@dataclass(frozen=True)
+class TorqueScale:
+    """The uncompensated model s_i = T_i / k_i: the seed's pre-scaled curves (Fig. 5)."""
+
+    arm: Links
+    scale: tuple[float, float]  #: k_i, torque [N m] per signal unit
+
+    def sensing_matrix(self, theta1, theta2) -> np.ndarray:
+        return torque_rows(self.arm, theta1, theta2) / np.asarray(self.scale)[:, None]
+
+
+@dataclass(frozen=True)
+class AmplitudePhaseCompensator:
+    """The seed's compensator: per load cell, A_i(delta) and P_i(delta) polynomials.
+
+    The polynomials take delta in degrees and return the phase in degrees,
+    exactly as the seed prints them and as Table 4 lists them; the methods
+    take radians and convert at this boundary.
+    """
+
+    arm: Links
+    amplitude: tuple[PolynomialFit, PolynomialFit]
+    phase_deg: tuple[PolynomialFit, PolynomialFit]
+    delta_range: tuple[float, float]  #: delta [rad] covered by the fit; outside it the polynomials extrapolate
+
+    def parameters(self, delta) -> tuple[np.ndarray, np.ndarray]:
+        """A (``(..., 2)``, torque per signal unit) and P (``(..., 2)`` [rad]) at ``delta`` [rad]."""
+        delta_deg = np.degrees(np.asarray(delta, dtype=float))
+        amplitude = np.stack([fit(delta_deg) for fit in self.amplitude], axis=-1)
+        phase = np.radians(np.stack([fit(delta_deg) for fit in self.phase_deg], axis=-1))
+        return amplitude, phase
+
+    def sensing_matrix(self, theta1, theta2) -> np.ndarray:
+        theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
+        amplitude, phase = self.parameters(theta1 - theta2)
+        return rows_from_amplitude_phase(torque_rows(self.arm, theta1, theta2), amplitude, phase)
+
+
+@dataclass(frozen=True)
+class MatrixCompensator:
+    """The full map M0(delta) as Chebyshev series over the calibrated delta range.
+
+    ``coefficients[k]`` (shape ``(order + 1, 2, 2)``) multiplies T_k(x), with
+    x = delta mapped linearly from ``delta_range`` [rad] onto [-1, 1].  The
+    sensing matrix is M = M0(delta) R(-theta2) (module docstring); the
+    series is evaluated beyond the range too (extrapolation).
+    """
+
+    coefficients: np.ndarray
+    delta_range: tuple[float, float]
+    cv_rmse: tuple[float, ...] = field(default=(), compare=False)  #: cross-validated force RMSE [N] per order tried
+
+    @property
+    def order(self) -> int:
+        return self.coefficients.shape[0] - 1
+
+    def base_matrix(self, delta) -> np.ndarray:
+        """M0(delta), shape ``(..., 2, 2)``."""
+        x = _chebyshev_argument(np.asarray(delta, dtype=float), self.delta_range)
+        return np.moveaxis(np.polynomial.chebyshev.chebval(x, self.coefficients, tensor=True), (0, 1), (-2, -1))
+
+    def sensing_matrix(self, theta1, theta2) -> np.ndarray:
+        theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
+        return self.base_matrix(theta1 - theta2) @ rotation(-theta2)
+
+
+def _chebyshev_argument(delta: np.ndarray, delta_range: tuple[float, float]) -> np.ndarray:
+    low, high = delta_range
+    return (2.0 * delta - (low + high)) / (high - low)
+
+
+def estimate_force(
+    model: SensingModel,
+    theta1,
+    theta2,
+    load1,
+    load2,
+    *,
+    on_singular: str = "raise",
+    min_sin_delta: float = SINGULAR_SIN_DELTA,
+):
+    """End-effector force (fx, fy) [N] from the two load-cell signals: solve M F = s.
+
+    Angles in radians; loads in the model's signal unit.  Poses with
+    |sin(theta1 - theta2)| < ``min_sin_delta`` are singular: raise
+    :class:`SingularPoseError` (default), or with ``on_singular="mask"``
+    return ``(fx, fy, singular)`` with NaN there.
+
+    >>> from sailforce import Arm
+    >>> model = TorqueScale(Arm(), (1.0, 1.0))          # signals are the torques themselves
+    >>> fx, fy = estimate_force(model, np.pi / 2, 0.0, 0.0, 3.0)
+    >>> round(float(fx), 12), round(float(fy), 12)
+    (0.0, 10.0)
+    """
+    theta1, theta2, load1, load2 = as_float_arrays(theta1=theta1, theta2=theta2, load1=load1, load2=load2)
+    singular = np.abs(np.sin(theta1 - theta2)) < min_sin_delta
+    if on_singular == "raise" and singular.any():
+        raise_singular_pose(theta1, theta2, singular, min_sin_delta)
+    m = model.sensing_matrix(theta1, theta2)
+    det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
+    det = np.where(singular | (det == 0.0), np.nan, det)
+    # Cramer's rule, the closed-form 2x2 inverse (cf. seed Eq. 8 for M = J^T).
+    fx = (m[..., 1, 1] * load1 - m[..., 0, 1] * load2) / det
+    fy = (m[..., 0, 0] * load2 - m[..., 1, 0] * load1) / det
+    if on_singular == "raise":
+        return fx, fy
+    if on_singular != "mask":
+        raise ValueError(f"on_singular = {on_singular!r}: expected 'raise' or 'mask'")
+    return fx, fy, singular
+
+
+#: Highest Chebyshev order :func:`fit_matrix_compensator` tries by default.
+#: Beyond it the series starts fitting mesh or measurement noise rather than
+#: the smooth delta dependence of a frame (the study picks 4-6).
+MAX_MATRIX_ORDER = 8
+
+
+def fit_matrix_compensator(theta1, theta2, fx, fy, load1, load2, *, max_order: int | None = None) -> MatrixCompensator:
+    """Least-squares :class:`MatrixCompensator` on samples, order chosen by cross-validation.
+
+    Every argument is a 1-D array of samples (angles [rad], forces [N],
+    loads in signal units); both load cells are fitted at once, from every
+    sample.  Samples are grouped by delta, and each candidate order is
+    scored by leave-one-delta-out cross-validation: the RMSE of the force
+    vector [N] estimated at the held-out delta.  The order with the lowest
+    score is refitted on all samples.
+    """
+    theta1, theta2, fx, fy, load1, load2 = (np.ravel(a) for a in as_float_arrays(
+        theta1=theta1, theta2=theta2, fx=fx, fy=fy, load1=load1, load2=load2))  # fmt: skip
+    delta = theta1 - theta2
+    groups = np.unique(np.round(delta, 9), return_inverse=True)[1]
+    n_groups = int(groups.max()) + 1
+    if n_groups < 3:
+        raise CompensationError(f"the samples cover {n_groups} distinct delta value(s); at least 3 are needed")
+    highest = min(n_groups - 2, MAX_MATRIX_ORDER) if max_order is None else int(max_order)
+    if highest > n_groups - 2:
+        raise CompensationError(f"order {highest} needs at least {highest + 2} distinct delta values, got {n_groups}")
+    delta_range = (float(delta.min()), float(delta.max()))
+    rotated = (rotation(-theta2) @ np.stack([fx, fy], axis=-1)[..., None])[..., 0]  # (N, 2): F in link 2's frame
+    if np.linalg.matrix_rank(rotated) < 2:
+        raise CompensationError("the reference forces are collinear in the link frame: they cannot separate the map's columns")
+    loads = np.stack([load1, load2], axis=-1)
+
+    scores = []
+    for order in range(highest + 1):
+        squared = 0.0
+        for g in range(n_groups):
+            test = groups == g
+            model = _lstsq_matrix(delta[~test], rotated[~test], loads[~test], order, delta_range)
+            fx_hat, fy_hat, _ = estimate_force(model, theta1[test], theta2[test], load1[test], load2[test], on_singular="mask")
+            squared += float(np.nansum((fx_hat - fx[test]) ** 2 + (fy_hat - fy[test]) ** 2))
+        scores.append(np.sqrt(squared / theta1.size))
+    best = int(np.argmin(scores))
+    model = _lstsq_matrix(delta, rotated, loads, best, delta_range)
+    return MatrixCompensator(model.coefficients, delta_range, tuple(scores))
+
+
+def _lstsq_matrix(delta, rotated, loads, order: int, delta_range) -> MatrixCompensator:
+    # s_i = sum_k sum_a c[k, i, a] T_k(x) g_a is linear in c: one design matrix serves both cells.
+    basis = np.polynomial.chebyshev.chebvander(_chebyshev_argument(delta, delta_range), order)  # (N, K+1)
+    design = (basis[:, :, None] * rotated[:, None, :]).reshape(delta.size, -1)
+    solution = np.linalg.lstsq(design, loads, rcond=None)[0]  # ((K+1) * 2, 2 cells)
+    coefficients = solution.reshape(order + 1, 2, 2).transpose(0, 2, 1)  # [k, cell i, component a]
+    return MatrixCompensator(coefficients, delta_range)
