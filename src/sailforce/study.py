@@ -158,7 +158,15 @@ class StudyResult:
     rmse_matrix: Rmse
     force_rmse: dict[str, float]  #: force-vector RMSE [N] on both validation grids, per model
     workspace: WorkspaceErrors
+    #: largest difference between the sweeps' amplitude (relative) and phase [deg] of the
+    #: same cell at the same delta: zero in a linear model (ERRATA.md, Physics)
+    delta_only_discrepancy: dict[str, float]
     timings: dict[str, float] = field(default_factory=dict, compare=False)
+
+    def rmse_after_per_pose(self, cell: int) -> np.ndarray:
+        """RMSE [N m] of the compensated curve of ``cell`` (0 or 1) at each validation pose."""
+        error = self.compensated[cell] - self.validation[cell].torque[:, cell]
+        return np.sqrt(np.mean(np.square(error), axis=-1))
 
     @property
     def torque_amplitude(self) -> tuple[float, float]:
@@ -209,14 +217,14 @@ def run_study(
     rmse_after = Rmse(*(_rms(compensated[i] - validation[i].torque[:, i]) for i in range(2)))
 
     samples = _samples(sweeps, phi, force)
-    matrix = fit_matrix_compensator(*samples)
+    matrix = fit_matrix_compensator(arm, *samples)
     models: dict[str, SensingModel] = {"uncompensated": TorqueScale(arm, prescale), "seed": compensator, "matrix": matrix}
     rmse_after_estimator = _estimator_rmse(compensator, validation, phi, force, arm)
     rmse_matrix = _estimator_rmse(matrix, validation, phi, force, arm)
     force_rmse = {name: _force_rmse(m, validation, phi, force) for name, m in models.items()}
 
     wide = curves(*_poses(protocol.wide_calibration_delta_deg, 0.0))
-    models["matrix, calibrated 15-165 deg"] = fit_matrix_compensator(*_samples((wide,), phi, force))
+    models["matrix, calibrated 15-165 deg"] = fit_matrix_compensator(arm, *_samples((wide,), phi, force))
     workspace_delta = np.radians(protocol.workspace_delta_deg)
     grid = curves(workspace_delta, np.zeros_like(workspace_delta))
     workspace = WorkspaceErrors(
@@ -225,7 +233,7 @@ def run_study(
     return StudyResult(
         robot, transduction, protocol, criterion, threshold, stress_response, sweeps, prescale, table4,
         regressors, compensator, validation, compensated, rmse_before, rmse_after, rmse_after_estimator,
-        matrix, rmse_matrix, force_rmse, workspace,
+        matrix, rmse_matrix, force_rmse, workspace, _delta_only_discrepancy(sweeps, phi, force, arm),
     )  # fmt: skip
 
 
@@ -247,6 +255,20 @@ def _table4(sweeps: tuple[Curves, Curves], phi, force: float, arm) -> np.ndarray
         raise ValueError("the two sweeps must cover the same delta values to share Table 4 rows")
     (delta_deg, a1, p1), (_, a2, p2) = columns
     return np.column_stack([delta_deg, a1, p1, a2, p2])
+
+
+def _delta_only_discrepancy(sweeps: tuple[Curves, Curves], phi, force: float, arm) -> dict[str, float]:
+    """Both cells' amplitude and phase from each sweep, compared at equal delta (sweep 2 runs delta downwards)."""
+    per_sweep = []
+    for sweep in sweeps:
+        order = np.argsort(sweep.delta)
+        measured = sinusoid_rows(phi, force, sweep.signal[order])  # (n, 2 cells, 2)
+        per_sweep.append(amplitude_phase(measured, torque_rows(arm, sweep.theta1[order], sweep.theta2[order])))
+    (a1, p1), (a2, p2) = per_sweep
+    return {
+        "amplitude_relative": float(np.max(np.abs(a1 - a2) / np.abs(a1))),
+        "phase_deg": float(np.degrees(np.max(np.abs(p1 - p2)))),
+    }
 
 
 def _shifted_curve(curves: Curves, i: int, compensator: AmplitudePhaseCompensator, phi, force: float) -> np.ndarray:
