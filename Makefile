@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+DEMO_DIR ?= out/reproduce
 
 .PHONY: demo test bench install clean
 
@@ -17,7 +18,7 @@ $(STAMP): $(PY) pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/sail demo
+	$(VENV)/bin/sail reproduce -o $(DEMO_DIR)
 
 test: $(STAMP)
 	$(PY) -m pytest

@@ -65,8 +65,13 @@ def read_numeric_csv(path: str | Path, *, min_columns: int = 1) -> tuple[list[st
     or non-finite cell, and a table without data rows.  Blank lines are skipped.
     """
     path = Path(path)
-    with open(path, newline="", encoding="utf-8") as stream:
-        rows = [(n, row) for n, row in enumerate(csv.reader(stream), start=1) if any(c.strip() for c in row)]
+    try:
+        with open(path, newline="", encoding="utf-8") as stream:
+            rows = [(n, row) for n, row in enumerate(csv.reader(stream), start=1) if any(c.strip() for c in row)]
+    except UnicodeDecodeError as exc:
+        raise TableError(f"{path}: not a UTF-8 text table (byte {exc.start} cannot be decoded)") from None
+    except csv.Error as exc:
+        raise TableError(f"{path}: malformed CSV ({exc})") from None
     if not rows:
         raise TableError(f"{path}: the file is empty; expected a header row and data rows")
     (_, header), body = rows[0], rows[1:]

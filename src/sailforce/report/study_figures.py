@@ -107,8 +107,12 @@ def workspace_figure(result: StudyResult):
     """Force-vector error (RMS over φ, relative to |F|) of every model across delta = 15..165 deg."""
     fig, ax = plt.subplots(figsize=(8, 4.2), layout="constrained")
     delta_deg = np.degrees(result.workspace.delta)
+    floor = 1e-7  # relative errors below this (rounding, as with pin joints) are drawn at it
+    top = max(max(float(e.max()) for e in result.workspace.relative_error.values()) * 100 * 3, 1e-3)
+    ax.set_yscale("log")
+    ax.set_ylim(floor * 100 / 3, top)  # before plotting: flat pin-joint curves would collapse autoscaling
     for name, error in result.workspace.relative_error.items():
-        ax.semilogy(delta_deg, np.maximum(error, 1e-7) * 100, label=name, color=MODEL_COLOURS.get(name))
+        ax.plot(delta_deg, np.maximum(error, floor) * 100, label=name, color=MODEL_COLOURS.get(name))
     low, high = np.degrees(result.compensator.delta_range)
     ax.axvspan(delta_deg.min(), low, color="0.9")
     ax.axvspan(high, delta_deg.max(), color="0.9", label="outside the seed's fitted Δ range")

@@ -1,0 +1,162 @@
+"""The reproduced study: physics checks on its tables, and ``sail reproduce`` end to end."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from sailforce.cli import cli
+from sailforce.compensation import torque_rows
+from sailforce.robot import Robot
+from sailforce.study import TABLE4_COLUMNS, Protocol, run_study
+
+#: The frame solve is accurate to ~1e-12 relative (cond(K) ~1e7 times eps);
+#: quantities that physics makes exactly equal are compared at 1e-9.
+FE_RTOL = 1e-9
+
+
+@pytest.fixture(scope="module")
+def bonded():
+    return run_study(Robot().with_joints("bonded"))
+
+
+@pytest.fixture(scope="module")
+def pin():
+    return run_study(Robot().with_joints("pin"))
+
+
+def test_protocol_is_the_errata_protocol():
+    p = Protocol()
+    assert len(p.phi_deg) == 24 and p.phi_deg[-1] == 345.0
+    assert p.sweep1_theta1_deg == (15.0, 30.0, 45.0, 60.0, 75.0, 90.0, 105.0, 120.0)
+    assert p.sweep2_theta2_deg == (0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0, 105.0)
+    assert p.valid1_theta1_deg[0] == 22.5 and p.valid1_theta1_deg[-1] == 127.5
+    assert p.valid2_theta2_deg[0] == -7.5 and p.valid2_theta2_deg[-1] == 97.5
+    assert p.stress_phi_deg == (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
+
+
+def test_pin_joints_leave_nothing_to_compensate(pin):
+    """Determinate linkage (ERRATA.md): signals exactly proportional to torques, so A = k and P = 0."""
+    table = pin.table4
+    np.testing.assert_allclose(table[:, 1], pin.prescale[0], rtol=FE_RTOL)
+    np.testing.assert_allclose(table[:, 3], pin.prescale[1], rtol=FE_RTOL)
+    np.testing.assert_allclose(table[:, [2, 4]], 0.0, atol=FE_RTOL)
+    assert pin.rmse_before.mean < FE_RTOL * pin.torque_amplitude[1]
+    assert all(fit.order == 0 for fit in pin.regressors.values())
+    assert pin.matrix_compensator.order == 0
+
+
+def test_pin_prescale_matches_the_determinate_shear(pin):
+    """Each driven link carries the constant shear T_i / l_i; the cell's far face deflects by its beam law."""
+    response = pin.sweeps[0]
+    unit = response.unit_signal[:, 0]  # deflection per unit F of cell 1
+    rows = torque_rows(pin.robot.arm, response.theta1, response.theta2)[:, 0]
+    ratio = np.hypot(*rows.T) / np.hypot(*unit.T)
+    np.testing.assert_allclose(ratio, pin.prescale[0], rtol=FE_RTOL)
+
+
+def test_delta_only_dependence(bonded):
+    assert bonded.delta_only_discrepancy["amplitude_relative"] < FE_RTOL
+    assert bonded.delta_only_discrepancy["phase_deg"] < FE_RTOL
+
+
+def test_table4_fit_matches_peak_picking(bonded):
+    """Independent check of the least-squares sinusoid: amplitude ratio and peak shift on a 0.001 deg grid."""
+    fine = np.radians(np.arange(0.0, 360.0, 0.001))
+    k = 4  # delta = 75 deg in sweep 1
+    sweep = bonded.sweeps[0]
+    row = sweep.unit_signal[k, 0]
+    j = torque_rows(bonded.robot.arm, sweep.theta1[k], sweep.theta2[k])[0]
+    signal = row[0] * np.cos(fine) + row[1] * np.sin(fine)
+    torque = j[0] * np.cos(fine) + j[1] * np.sin(fine)
+    amplitude = torque.max() / signal.max()
+    shift = np.degrees(fine[np.argmax(torque)] - fine[np.argmax(signal)])
+    assert bonded.table4[k, 0] == 75.0
+    assert bonded.table4[k, 1] == pytest.approx(amplitude, rel=1e-9)
+    assert bonded.table4[k, 2] == pytest.approx(shift, abs=0.002)
+
+
+def test_bonded_deviations_have_the_seeds_signs(bonded):
+    """Seed Table 4: P1 > 0 and P2 < 0 at every delta, |P| growing with delta (P1 up to 105 deg)."""
+    p1, p2 = bonded.table4[:, 2], bonded.table4[:, 4]
+    assert np.all(p1 > 0) and np.all(p2 < 0)
+    assert np.all(np.diff(p1) > 0) and np.all(np.diff(p2) < 0)
+
+
+def test_compensation_improves_and_matrix_beats_seed(bonded):
+    assert bonded.rmse_after.t1 < 0.05 * bonded.rmse_before.t1
+    assert bonded.rmse_after.t2 < 0.05 * bonded.rmse_before.t2
+    assert bonded.force_rmse["matrix"] < bonded.force_rmse["seed"] < bonded.force_rmse["uncompensated"]
+
+
+def test_extrapolation_is_worse_at_127_5(bonded):
+    for cell in (0, 1):
+        per_pose = bonded.rmse_after_per_pose(cell)
+        outside = np.isclose(np.degrees(bonded.validation[cell].delta), 127.5)
+        assert outside.sum() == 1
+        assert per_pose[outside][0] > np.median(per_pose[~outside])
+
+
+@pytest.fixture(scope="module")
+def reproduced(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduce")
+    result = CliRunner().invoke(cli, ["reproduce", "-o", str(out), "--dpi", "60"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    return out, result.output
+
+
+def test_reproduce_writes_every_output(reproduced):
+    out, output = reproduced
+    for name in ("fig4_stress.png", "fig5_sweeps.png", "fig6_compensated.png", "table4.png", "workspace.png",
+                 "table4.csv", "results.json", "report.md", "report.html"):  # fmt: skip
+        assert (out / name).stat().st_size > 0, name
+        assert (out / "pin" / name).exists() or name.startswith("report"), name
+    assert "study" in output and "report" in output
+
+
+def test_reproduce_results_json_schema(reproduced):
+    out, _ = reproduced
+    data = json.loads((out / "results.json").read_text())
+    assert data["joints"] == "bonded" and data["transduction"] == "deflection"
+    assert data["software"].startswith("sailforce ") and "arm" in data["robot"]
+    assert len(data["table4"]) == 8 and set(data["table4"][0]) == set(TABLE4_COLUMNS)
+    for name in TABLE4_COLUMNS[1:]:
+        entry = data["regressors"][name]
+        assert {"order", "coefficients", "r2", "adj_r2"} <= set(entry)
+        assert len(entry["coefficients"]) == entry["order"] + 1
+    for key in ("rmse", "rmse_relative"):
+        for when in ("before", "after"):
+            assert set(data[key][when]) >= {"t1", "t2", "mean"}
+    rmse, rel = data["rmse"]["after"], data["rmse_relative"]["after"]
+    assert rel["t1"] == pytest.approx(rmse["t1"] / 4.5) and rel["t2"] == pytest.approx(rmse["t2"] / 3.0)
+
+
+def test_reproduce_table4_csv_matches_json(reproduced):
+    out, _ = reproduced
+    with open(out / "table4.csv") as stream:
+        rows = list(csv.DictReader(stream))
+    data = json.loads((out / "results.json").read_text())
+    assert list(rows[0]) == list(TABLE4_COLUMNS)
+    for row, entry in zip(rows, data["table4"]):
+        for name in TABLE4_COLUMNS:
+            assert float(row[name]) == pytest.approx(entry[name], rel=1e-9)
+
+
+def test_report_is_self_contained_and_cites_the_seed(reproduced):
+    out, _ = reproduced
+    html = (out / "report.html").read_text()
+    assert 'src="fig' not in html and html.count("data:image/png;base64,") == 5
+    markdown = (out / "report.md").read_text()
+    for needle in ("Errata", "Eq. 10", "919.458", "0.436", "127.5", "pin", "Δ-only", "Beyond the seed"):
+        assert needle in markdown, needle
+
+
+def test_reproduce_rejects_bad_robot_file(tmp_path):
+    robot = tmp_path / "robot.toml"
+    robot.write_text("[links]\nl1 = -1\n")
+    result = CliRunner().invoke(cli, ["reproduce", "-o", str(tmp_path / "o"), "--robot", str(robot)])
+    assert result.exit_code == 1 and "Traceback" not in result.output
