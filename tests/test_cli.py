@@ -23,7 +23,7 @@ def test_version():
     assert result.exit_code == 0 and __version__ in result.output
 
 
-@pytest.mark.parametrize("command", [[], ["statics"], ["robot"], ["robot", "init"], ["robot", "show"], ["demo"], ["simulate"], ["stress"]])
+@pytest.mark.parametrize("command", [[], ["statics"], ["robot"], ["robot", "init"], ["robot", "show"], ["demo"], ["simulate"], ["stress"], ["reproduce"], ["fit-poly"]])
 def test_every_command_has_help(command):
     result = run(*command, "--help")
     assert result.exit_code == 0 and "Usage:" in result.output
