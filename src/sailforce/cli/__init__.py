@@ -49,4 +49,4 @@ def main() -> None:
     cli(prog_name="sail")
 
 
-from . import demo_cmd, fitpoly_cmd, reproduce_cmd, robot_cmd, simulate_cmd, statics_cmd, stress_cmd  # noqa: E402,F401  (registers commands)
+from . import calibrate_cmd, demo_cmd, estimate_cmd, fitpoly_cmd, reproduce_cmd, robot_cmd, simulate_cmd, statics_cmd, stress_cmd  # noqa: E402,F401  (registers commands)

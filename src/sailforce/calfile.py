@@ -1,0 +1,224 @@
+"""The calibration: a frozen dataclass, its JSON file, and its estimator.
+
+File format (``schema_version`` 1), one JSON object:
+
+- ``schema_version``, ``software``, ``created`` (UTC ISO 8601), ``data_sha256``;
+- ``units``: ``{"angles": "rad", "force": "N", "load": <label>}``;
+- ``robot``: ``{"l1", "l2", "l3", "l4"}`` [m];
+- ``offsets``: ``[o1, o2]`` raw; ``capacity``: ``[c1, c2]`` raw (offset removed);
+- ``delta_range``: ``[low, high]`` [rad]; ``load_range``: ``[[min1, max1], [min2, max2]]`` raw;
+- ``model``: ``{"kind": "matrix", "coefficients": [[[..]]] (order+1, 2, 2), "delta_range": [..]}`` or
+  ``{"kind": "seed", "amplitude": [p1, p2], "phase_deg": [p1, p2]}``, each p a list of
+  coefficients, highest power first, in delta [deg];
+- ``metrics``: fit and cross-validated RMSE [N], sample and delta counts;
+- ``checksum``: SHA-256 of the canonical JSON (sorted keys, compact) of everything else.
+
+It is written atomically.  Loading validates every field and the checksum
+and raises :class:`CalibrationFileError` naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .arm import Arm
+from .compensation import AmplitudePhaseCompensator, MatrixCompensator
+from .errors import GeometryError, SailError
+from .estimator import estimate
+from .io import atomic_writer
+from .regressors import PolynomialFit
+
+SCHEMA_VERSION = 1
+REQUIRED = ("schema_version", "software", "created", "data_sha256", "units", "robot", "offsets", "capacity",
+            "delta_range", "load_range", "model", "metrics", "checksum")  # fmt: skip
+
+
+class CalibrationFileError(SailError):
+    """A calibration file that is missing, corrupt, tampered with or out of range."""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A fitted calibration: raw readings and joint angles in, end-effector force out.
+
+    >>> import numpy as np
+    >>> from sailforce.compensation import MatrixCompensator
+    >>> arm = Arm()
+    >>> c = np.zeros((1, 2, 2)); c[0] = np.diag([1 / 740, 1 / 528])   # loads = T_i / k_i
+    >>> cal = Calibration(arm, MatrixCompensator(arm, c, (0.2, 2.2)), (0.0, 0.0), (10.0, 10.0), (0.2, 2.2))
+    >>> fx, fy, status = cal.estimate(np.pi / 2, 0.0, 0.0, 3.0 / 528)
+    >>> round(float(fx), 9), round(float(fy), 9), int(status)
+    (0.0, 10.0, 0)
+    """
+
+    arm: Arm
+    model: MatrixCompensator | AmplitudePhaseCompensator
+    offsets: tuple[float, float]
+    capacity: tuple[float, float]  #: |load - offset| beyond this is saturated [raw]
+    delta_range: tuple[float, float]  #: calibrated delta [rad]
+    load_range: tuple[tuple[float, float], tuple[float, float]] = ((-math.inf, math.inf), (-math.inf, math.inf))
+    load_unit: str = "raw"
+    metrics: dict = field(default_factory=dict, compare=False)
+    data_sha256: str = ""
+    created: str = ""
+    software: str = f"sailforce {__version__}"
+
+    @property
+    def kind(self) -> str:
+        return "matrix" if isinstance(self.model, MatrixCompensator) else "seed"
+
+    def estimate(self, theta1, theta2, load1, load2):
+        """``(fx, fy, status)`` [N] for readings: angles [rad], raw loads; vectorized.
+
+        Status codes are :mod:`sailforce.estimator`'s; fx and fy are NaN for
+        invalid and singular readings.
+        """
+        return estimate(self.model, self.offsets, self.capacity, self.delta_range, theta1, theta2, load1, load2)
+
+    def with_offsets(self, offsets) -> "Calibration":
+        """A copy with new tare offsets (raw)."""
+        return replace(self, offsets=(float(offsets[0]), float(offsets[1])))
+
+    # -- file ---------------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """The JSON content, checksum included."""
+        content = {
+            "schema_version": SCHEMA_VERSION,
+            "software": self.software,
+            "created": self.created or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "data_sha256": self.data_sha256,
+            "units": {"angles": "rad", "force": "N", "load": self.load_unit},
+            "robot": {"l1": self.arm.l1, "l2": self.arm.l2, "l3": self.arm.l3, "l4": self.arm.l4},
+            "offsets": list(map(float, self.offsets)),
+            "capacity": list(map(float, self.capacity)),
+            "delta_range": list(map(float, self.delta_range)),
+            "load_range": [list(map(float, r)) for r in self.load_range],
+            "model": _model_dict(self.model),
+            "metrics": self.metrics,
+        }
+        content["checksum"] = checksum(content)
+        return content
+
+    def save(self, path: str | Path) -> None:
+        """Write the calibration file atomically."""
+        with atomic_writer(path) as stream:
+            json.dump(self.to_dict(), stream, indent=2)
+            stream.write("\n")
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Calibration":
+        """Read and validate a calibration file; :class:`CalibrationFileError` says what is wrong."""
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise CalibrationFileError(f"{path}: no such calibration file") from None
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise CalibrationFileError(f"{path}: not a calibration file (invalid JSON: {exc})") from None
+        return cls.from_dict(data, str(path))
+
+    @classmethod
+    def from_dict(cls, data: object, source: str = "calibration") -> "Calibration":
+        """Validate ``data`` (the parsed JSON) and build the calibration."""
+
+        def fail(message: str):
+            raise CalibrationFileError(f"{source}: {message}")
+
+        if not isinstance(data, dict):
+            fail("expected a JSON object")
+        missing = [k for k in REQUIRED if k not in data]
+        if missing:
+            fail(f"missing field(s) {', '.join(missing)}")
+        if data["schema_version"] != SCHEMA_VERSION:
+            fail(f"schema_version {data['schema_version']!r} is not supported (this sailforce reads {SCHEMA_VERSION})")
+        expected = checksum({k: v for k, v in data.items() if k != "checksum"})
+        if data["checksum"] != expected:
+            fail("checksum does not match the content: the file was edited or corrupted; recalibrate or re-tare")
+        try:
+            arm = Arm(**{k: _number(data["robot"], k) for k in ("l1", "l2", "l3", "l4")})
+        except (GeometryError, TypeError, KeyError) as exc:
+            fail(f"robot: {exc}")
+        offsets = _pair(data, "offsets", fail)
+        capacity = _pair(data, "capacity", fail)
+        if min(capacity) <= 0:
+            fail(f"capacity {capacity} must be positive")
+        delta_range = _pair(data, "delta_range", fail)
+        if not 0.0 < delta_range[0] < delta_range[1] < math.pi and not -math.pi < delta_range[0] < delta_range[1] < 0.0:
+            fail(f"delta_range {delta_range} rad must be increasing and inside (0, pi) or (-pi, 0)")
+        load_range = data["load_range"]
+        if not (isinstance(load_range, list) and len(load_range) == 2):
+            fail("load_range must be [[min1, max1], [min2, max2]]")
+        load_range = tuple(_pair({"r": r}, "r", fail) for r in load_range)
+        model = _model_from(data["model"], arm, delta_range, fail)
+        units = data["units"]
+        return cls(arm, model, offsets, capacity, delta_range, load_range,
+                   str(units.get("load", "raw")) if isinstance(units, dict) else "raw",
+                   data["metrics"] if isinstance(data["metrics"], dict) else {},
+                   str(data["data_sha256"]), str(data["created"]), str(data["software"]))  # fmt: skip
+
+
+def checksum(content: dict) -> str:
+    """SHA-256 of the canonical JSON of ``content`` (sorted keys, no whitespace)."""
+    canonical = json.dumps(content, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(canonical.encode("utf-8")).hexdigest()
+
+
+def _number(mapping, key) -> float:
+    value = mapping[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise TypeError(f"{key} = {value!r} is not a finite number")
+    return float(value)
+
+
+def _pair(data: dict, key: str, fail) -> tuple[float, float]:
+    value = data[key]
+    try:
+        if not (isinstance(value, list) and len(value) == 2):
+            raise TypeError
+        return (_number(value, 0), _number(value, 1))
+    except TypeError:
+        fail(f"{key} = {value!r}: expected two finite numbers")
+
+
+def _model_dict(model) -> dict:
+    if isinstance(model, MatrixCompensator):
+        return {"kind": "matrix", "coefficients": np.asarray(model.coefficients).tolist(),
+                "delta_range": list(model.delta_range), "cv_rmse_N": list(model.cv_rmse)}  # fmt: skip
+    return {"kind": "seed", "amplitude": [list(p.coefficients) for p in model.amplitude],
+            "phase_deg": [list(p.coefficients) for p in model.phase_deg],
+            "delta_range": list(model.delta_range)}  # fmt: skip
+
+
+def _model_from(data: object, arm: Arm, delta_range, fail):
+    if not isinstance(data, dict) or data.get("kind") not in ("seed", "matrix"):
+        fail("model.kind must be 'seed' or 'matrix'")
+    model_range = _pair(data, "delta_range", fail) if "delta_range" in data else delta_range
+    if data["kind"] == "matrix":
+        try:
+            c = np.asarray(data["coefficients"], dtype=float)
+        except (KeyError, TypeError, ValueError):
+            fail("model.coefficients must be an (order + 1, 2, 2) array of numbers")
+        if c.ndim != 3 or c.shape[1:] != (2, 2) or c.shape[0] < 1 or not np.all(np.isfinite(c)):
+            fail(f"model.coefficients must be a finite (order + 1, 2, 2) array, got shape {c.shape}")
+        if not model_range[0] < model_range[1]:
+            fail(f"model.delta_range {model_range} must be increasing")
+        return MatrixCompensator(arm, c, model_range)
+    fits = {}
+    for key in ("amplitude", "phase_deg"):
+        polys = data.get(key)
+        if not (isinstance(polys, list) and len(polys) == 2 and all(isinstance(p, list) and p for p in polys)):
+            fail(f"model.{key} must be two lists of polynomial coefficients")
+        try:
+            fits[key] = tuple(PolynomialFit(len(p) - 1, tuple(_number(p, i) for i in range(len(p))),
+                                            math.nan, math.nan, "cv", math.nan, True) for p in polys)  # fmt: skip
+        except TypeError as exc:
+            fail(f"model.{key}: {exc}")
+    return AmplitudePhaseCompensator(arm, fits["amplitude"], fits["phase_deg"], model_range)
