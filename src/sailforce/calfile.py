@@ -64,7 +64,7 @@ class Calibration:
     offsets: tuple[float, float]
     capacity: tuple[float, float]  #: |load - offset| beyond this is saturated [raw]
     delta_range: tuple[float, float]  #: calibrated delta [rad]
-    load_range: tuple[tuple[float, float], tuple[float, float]] = ((-math.inf, math.inf), (-math.inf, math.inf))
+    load_range: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))  #: raw seen when calibrating
     load_unit: str = "raw"
     metrics: dict = field(default_factory=dict, compare=False)
     data_sha256: str = ""
