@@ -1,0 +1,85 @@
+"""Calibration.estimate throughput and `sail estimate` end to end, each beside a plain pandas baseline."""
+
+from __future__ import annotations
+
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+from _timing import best_of
+
+from sailforce.calfile import Calibration
+from sailforce.compensation import MatrixCompensator
+from sailforce.arm import Arm
+
+N_CALL = 1_000_000
+N_ROWS = int(os.environ.get("SAIL_BENCH_ROWS", 10_000_000))  #: issue 5: a 10-million-row CSV
+TARGET_CALL = 20e6  #: samples/s
+TARGET_ROWS = 1e6  #: rows/s end to end
+TARGET_MB = 300.0
+
+
+def _calibration() -> Calibration:
+    arm = Arm()
+    rng = np.random.default_rng(0)
+    c = rng.normal(scale=1e-5, size=(7, 2, 2))  # order 6, as the study's matrix compensator
+    c[0] = np.diag([2.0, 2.4])
+    return Calibration(arm, MatrixCompensator(arm, c, (0.26, 2.88)), (100.0, -50.0), (4e6, 4e6), (0.26, 2.88),
+                       ((-4e6, 4e6), (-4e6, 4e6)))  # fmt: skip
+
+
+def _pandas_baseline(cal: Calibration, source: Path, destination: Path) -> None:
+    import pandas as pd
+
+    frame = pd.read_csv(source)
+    fx, fy, status = cal.estimate(np.radians(frame["theta1_deg"].to_numpy()), np.radians(frame["theta2_deg"].to_numpy()),
+                                  frame["load1"].to_numpy(), frame["load2"].to_numpy())  # fmt: skip
+    frame["fx_N"], frame["fy_N"], frame["status"] = fx, fy, status
+    frame.to_csv(destination, index=False)
+
+
+def _child_peak_mb(command: list[str]) -> tuple[float, float]:
+    start = time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True)
+    elapsed = time.perf_counter() - start
+    return elapsed, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+
+
+def run() -> list[tuple[str, str]]:
+    cal = _calibration()
+    rng = np.random.default_rng(1)
+    t2 = rng.uniform(-1, 1, N_CALL)
+    t1 = t2 + rng.uniform(0.3, 2.8, N_CALL)
+    l1, l2 = rng.uniform(-1e6, 1e6, N_CALL), rng.uniform(-1e6, 1e6, N_CALL)
+    t_call = best_of(3, lambda: cal.estimate(t1, t2, l1, l2))
+    rows = [("Calibration.estimate, order-6 matrix model, 1e6 samples", f"{N_CALL / t_call / 1e6:10.2f} M samples/s"),
+            ("target", f">= {TARGET_CALL / 1e6:g} M samples/s: {'met' if N_CALL / t_call >= TARGET_CALL else 'NOT met'}")]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        cal.save(tmp / "cal.json")
+        n = N_ROWS
+        t2 = rng.uniform(-60, 60, n).round(4)
+        table = pa.table({"time_s": np.arange(n) * 1e-3, "theta1_deg": (t2 + rng.uniform(20, 160, n)).round(4),
+                          "theta2_deg": t2, "load1": rng.integers(-10**6, 10**6, n), "load2": rng.integers(-10**6, 10**6, n)})  # fmt: skip
+        pacsv.write_csv(table, tmp / "in.csv")
+        del table, t2
+        sail = str(Path(sys.executable).with_name("sail"))
+        ours, ours_mb = _child_peak_mb([sail, "estimate", "--calibration", str(tmp / "cal.json"), str(tmp / "in.csv"), "-o", str(tmp / "out.csv")])
+        script = ("import sys; sys.path.insert(0, %r); from bench_estimate import _pandas_baseline, _calibration; "
+                  "from pathlib import Path; _pandas_baseline(_calibration(), Path(%r), Path(%r))") % (
+                      str(Path(__file__).parent), str(tmp / "in.csv"), str(tmp / "pd.csv"))  # fmt: skip
+        base, _ = _child_peak_mb([sys.executable, "-c", script])
+    rows += [
+        (f"sail estimate, {n:,}-row CSV, end to end", f"{n / ours / 1e6:10.2f} M rows/s, peak {ours_mb:.0f} MB"),
+        ("pandas read_csv -> estimate -> to_csv, same file", f"{n / base / 1e6:10.2f} M rows/s ({base / ours:.2f}x our time)"),
+        ("target", f">= 1 M rows/s and <= {TARGET_MB:g} MB: "
+                   f"{'met' if n / ours >= TARGET_ROWS and ours_mb <= TARGET_MB else 'NOT met'}"),
+    ]  # fmt: skip
+    return rows
