@@ -175,7 +175,7 @@ def test_live_stdin(files):
 
 def test_live_serial_through_pty(files):
     """pyserial reads a pseudo-terminal; each estimate appears as its line arrives."""
-    serial = pytest.importorskip("serial")
+    import serial
     d, offsets = files
     cal = Calibration.load(d / "cal.json")
     master, slave = os.openpty()
