@@ -187,6 +187,15 @@ def _chebyshev_argument(delta: np.ndarray, delta_range: tuple[float, float]) -> 
     return (2.0 * delta - (low + high)) / (high - low)
 
 
+def solve_sensing(m: np.ndarray, load1, load2, skip) -> tuple[np.ndarray, np.ndarray]:
+    """Solve M F = s for F by Cramer's rule (cf. seed Eq. 8 for M = J^T); NaN where ``skip`` or det M = 0."""
+    det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
+    det = np.where(skip | (det == 0.0), np.nan, det)
+    fx = (m[..., 1, 1] * load1 - m[..., 0, 1] * load2) / det
+    fy = (m[..., 0, 0] * load2 - m[..., 1, 0] * load1) / det
+    return fx, fy
+
+
 def estimate_force(
     model: SensingModel,
     theta1,
@@ -214,12 +223,7 @@ def estimate_force(
     singular = np.abs(np.sin(theta1 - theta2)) < min_sin_delta
     if on_singular == "raise" and singular.any():
         raise_singular_pose(theta1, theta2, singular, min_sin_delta)
-    m = model.sensing_matrix(theta1, theta2)
-    det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
-    det = np.where(singular | (det == 0.0), np.nan, det)
-    # Cramer's rule, the closed-form 2x2 inverse (cf. seed Eq. 8 for M = J^T).
-    fx = (m[..., 1, 1] * load1 - m[..., 0, 1] * load2) / det
-    fy = (m[..., 0, 0] * load2 - m[..., 1, 0] * load1) / det
+    fx, fy = solve_sensing(model.sensing_matrix(theta1, theta2), load1, load2, singular)
     if on_singular == "raise":
         return fx, fy
     if on_singular != "mask":

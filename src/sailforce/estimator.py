@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .compensation import solve_sensing
 from .statics import SINGULAR_SIN_DELTA
 
 OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID = range(5)
@@ -47,15 +48,8 @@ def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2
     saturated = (np.abs(s1) > capacity[0]) | (np.abs(s2) > capacity[1])
     extrapolated = (delta < delta_range[0] - DELTA_RANGE_SLACK) | (delta > delta_range[1] + DELTA_RANGE_SLACK)
 
-    m = model.sensing_matrix(theta1, theta2)
-    det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
-    singular = singular | (det == 0.0)  # a degenerate fitted map cannot be inverted either
-    no_estimate = invalid | singular
-    det = np.where(no_estimate, 1.0, det)
-    fx = (m[..., 1, 1] * s1 - m[..., 0, 1] * s2) / det  # Cramer's rule on M F = s
-    fy = (m[..., 0, 0] * s2 - m[..., 1, 0] * s1) / det
-    fx = np.where(no_estimate, np.nan, fx)
-    fy = np.where(no_estimate, np.nan, fy)
+    fx, fy = solve_sensing(model.sensing_matrix(theta1, theta2), s1, s2, invalid | singular)
+    singular = singular | (np.isnan(fx) & ~invalid)  # a degenerate fitted map cannot be inverted either
 
     status = np.full(fx.shape, OK, dtype=np.int8)
     status[extrapolated] = EXTRAPOLATED

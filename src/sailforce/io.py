@@ -18,7 +18,7 @@ from .errors import SailError
 
 
 class TableError(SailError):
-    """A CSV table that is empty, ragged, or holds a cell that is not a number."""
+    """A table that cannot be read: missing, empty, ragged, a bad header or cell, missing columns, corrupt Parquet."""
 
 
 @contextmanager

@@ -219,8 +219,8 @@ def run_study(
     samples = _samples(sweeps, phi, force)
     matrix = fit_matrix_compensator(arm, *samples)
     models: dict[str, SensingModel] = {"uncompensated": TorqueScale(arm, prescale), "seed": compensator, "matrix": matrix}
-    rmse_after_estimator = _estimator_rmse(compensator, validation, phi, force, arm)
-    rmse_matrix = _estimator_rmse(matrix, validation, phi, force, arm)
+    rmse_after_estimator = _estimator_rmse(compensator, validation, arm)
+    rmse_matrix = _estimator_rmse(matrix, validation, arm)
     force_rmse = {name: _force_rmse(m, validation, phi, force) for name, m in models.items()}
 
     wide = curves(*_poses(protocol.wide_calibration_delta_deg, 0.0))
@@ -290,7 +290,7 @@ def _estimates(model: SensingModel, curves: Curves) -> tuple[np.ndarray, np.ndar
     return estimate_force(model, theta1, theta2, curves.signal[:, 0], curves.signal[:, 1])
 
 
-def _estimator_rmse(model: SensingModel, validation, phi, force: float, arm) -> Rmse:
+def _estimator_rmse(model: SensingModel, validation, arm) -> Rmse:
     errors = []
     for i, curves in enumerate(validation):
         fx, fy = _estimates(model, curves)

@@ -29,7 +29,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from .errors import SailError
+from .io import TableError
 
 READING_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2")
 REFERENCE_COLUMNS = ("fx_N", "fy_N")
@@ -37,10 +37,6 @@ REFERENCE_COLUMNS = ("fx_N", "fy_N")
 #: Bytes of CSV parsed per chunk: ~200k rows of a typical file, a few tens of
 #: MB of working memory whatever the file size.
 CHUNK_BYTES = 8 << 20
-
-
-class TableError(SailError):
-    """A measurement table that cannot be read: missing file or columns, bad header, corrupt Parquet."""
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from markdown_it import MarkdownIt
 from .. import __version__
 from ..io import atomic_writer
 from ..study import StudyResult
-from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE
+from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
 
 ERRATA = (
     "**Eq. 10 is wrong**: the printed matrix is the transpose of the true inverse of Jᵀ; Eqs. 11 and 12 "
@@ -163,7 +163,7 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
             f"{_g(r.delta_only_discrepancy['amplitude_relative'], 2)} / {_g(r.delta_only_discrepancy['phase_deg'], 2)}",
         ]
 
-    seed_t = np.array(_seed_table())
+    seed_t = seed_table4()
     seed_row = ["seed (SolidWorks)", f"{seed_t[:, 2].min():.3g} … {seed_t[:, 2].max():.3g}",
                 f"{seed_t[:, 4].min():.3g} … {seed_t[:, 4].max():.3g}",
                 f"{100 * np.ptp(seed_t[:, 1]) / seed_t[:, 1].mean():.3g} / {100 * np.ptp(seed_t[:, 3]) / seed_t[:, 3].mean():.3g}",
@@ -189,15 +189,9 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
     ])  # fmt: skip
 
 
-def _seed_table() -> np.ndarray:
-    from .results import seed_table4
-
-    return seed_table4()
-
-
 def report_markdown(main: StudyResult, comparison: StudyResult | None, study_seconds: float) -> str:
     """The whole report as Markdown; figures are referenced by file name in the same directory."""
-    seed = _seed_table()
+    seed = seed_table4()
     k = main.prescale
     robot = main.robot
     parts = [
