@@ -14,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import signal
 
 from .errors import SailError
 
@@ -42,6 +41,8 @@ class LowPass:
             )
         if not 1 <= self.order <= 8:
             raise FilterError(f"low-pass order {self.order} must be 1 to 8")
+        from scipy import signal  # imported here: scipy.signal takes over a second to load
+
         self.sos = signal.butter(self.order, self.cutoff_hz, fs=self.sample_rate_hz, output="sos")
 
     def process(self, block: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -50,6 +51,8 @@ class LowPass:
         x = block[valid]
         if x.shape[0] == 0:
             return out
+        from scipy import signal
+
         if self.state is None:  # steady state at the first valid sample
             zi = signal.sosfilt_zi(self.sos)  # (sections, 2)
             self.state = zi[:, :, None] * x[0][None, None, :]

@@ -8,8 +8,9 @@ order; rows without an estimate (invalid, singular) have empty force fields.
 from __future__ import annotations
 
 import csv
-import io
 import math
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable, IO, Iterable
 
@@ -22,20 +23,36 @@ from .calfile import Calibration
 from .estimator import INVALID, STATUS_NAMES
 from .filters import LowPass
 from .io import atomic_writer
-from .tables import READING_COLUMNS, TableError, is_parquet, read_chunks
+from .tables import READING_COLUMNS, Chunk, TableError, is_parquet, read_chunks
 
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
 _STATUS_TEXT = pa.array(STATUS_NAMES)
 
 
+#: Chunks in flight at once: estimating and formatting one chunk (numpy and
+#: Arrow release the GIL) overlaps with parsing the next and writing the last.
+WORKERS = 2
+
+
 def estimate_columns(cal: Calibration, values: dict[str, np.ndarray], malformed: np.ndarray,
                      lowpass: LowPass | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
     """The output columns for one chunk of readings (degrees in, as in files), and the status codes."""
-    theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
+    return _estimate(cal, values, malformed, _loads(values, malformed, lowpass))
+
+
+def _loads(values: dict[str, np.ndarray], malformed: np.ndarray, lowpass: LowPass | None) -> np.ndarray:
+    """The ``(n, 2)`` loads, low-pass filtered if asked (sequential: the filter state runs through the stream)."""
     loads = np.column_stack([values["load1"], values["load2"]])
-    if lowpass is not None:
-        valid = ~malformed & np.all(np.isfinite(loads), axis=1) & np.isfinite(theta1) & np.isfinite(theta2)
-        loads = lowpass.process(loads, valid)
+    if lowpass is None:
+        return loads
+    valid = ~malformed & np.all(np.isfinite(loads), axis=1)
+    valid &= np.isfinite(values["theta1_deg"]) & np.isfinite(values["theta2_deg"])
+    return lowpass.process(loads, valid)
+
+
+def _estimate(cal: Calibration, values: dict[str, np.ndarray], malformed: np.ndarray,
+              loads: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
+    theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
     fx, fy, status = cal.estimate(theta1, theta2, loads[:, 0], loads[:, 1])
     status[malformed] = INVALID
     fx[malformed] = np.nan
@@ -51,6 +68,19 @@ def _output_table(table: pa.Table, columns: dict[str, np.ndarray], status: np.nd
     return table.append_column("status", _STATUS_TEXT.take(pa.array(status.astype(np.int32))))
 
 
+def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, csv_header: bool | None):
+    """One chunk's output (an Arrow table, or its CSV bytes when ``csv_header`` is not None) and status counts."""
+    columns, status = _estimate(cal, chunk.values, chunk.malformed, loads)
+    counts = np.bincount(status, minlength=len(STATUS_NAMES))
+    table = _output_table(chunk.table, columns, status)
+    if csv_header is None:
+        return table, counts
+    sink = pa.BufferOutputStream()
+    style = "needed" if chunk.quoted else "none"  # "none" keeps pass-through fields byte-identical
+    pacsv.write_csv(table, sink, pacsv.WriteOptions(include_header=csv_header, quoting_style=style))
+    return sink.getvalue(), counts
+
+
 def stream_estimate(
     cal: Calibration,
     source: str | Path,
@@ -62,44 +92,44 @@ def stream_estimate(
     """Estimate every row of ``source`` into ``destination`` (CSV or Parquet by extension), in constant memory.
 
     The output file appears only when complete (atomic write).  ``on_chunk``
-    receives the number of input bytes or rows consumed, for progress.
-    Returns the count of rows per status.
+    receives the number of rows written, for progress.  Chunks are estimated
+    on :data:`WORKERS` threads and written in order.  Returns the count of
+    rows per status.
     """
     source, destination = Path(source), Path(destination)
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
     parquet_out = is_parquet(destination)
-    with atomic_writer(destination, "wb") as stream:
-        writer = None
+    writer = None
+
+    def write(job: tuple[Future, int]) -> None:
+        nonlocal writer, counts
+        output, chunk_counts = job[0].result()
+        if parquet_out:
+            writer = writer or pq.ParquetWriter(stream, output.schema)
+            writer.write_table(output)
+        else:
+            stream.write(output)
+        counts += chunk_counts
+        if on_chunk:
+            on_chunk(job[1])
+
+    with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
+        pending: deque[tuple[Future, int]] = deque()
         first = True
         for chunk in read_chunks(source, READING_COLUMNS):
-            columns, status = estimate_columns(cal, chunk.values, chunk.malformed, lowpass)
-            counts += np.bincount(status, minlength=len(STATUS_NAMES))
-            table = _output_table(chunk.table, columns, status)
-            if parquet_out:
-                writer = writer or pq.ParquetWriter(stream, table.schema)
-                writer.write_table(table)
-            else:
-                _write_csv(stream, table, header=first)
+            loads = _loads(chunk.values, chunk.malformed, lowpass)
+            header = None if parquet_out else first
+            pending.append((pool.submit(_chunk_output, cal, chunk, loads, header), chunk.table.num_rows))
             first = False
-            if on_chunk:
-                on_chunk(chunk.table.num_rows)
-        if parquet_out and writer is not None:
+            while len(pending) >= WORKERS:
+                write(pending.popleft())
+        while pending:
+            write(pending.popleft())
+        if writer is not None:
             writer.close()
         if first:
             raise TableError(f"{source}: no data rows below the header")
     return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}
-
-
-def _write_csv(stream: IO[bytes], table: pa.Table, header: bool) -> None:
-    # Unquoted text keeps pass-through fields byte-identical; a field needing quotes falls back to quoting.
-    for style in ("none", "needed"):
-        buffer = io.BytesIO()
-        try:
-            pacsv.write_csv(table, buffer, pacsv.WriteOptions(include_header=header, quoting_style=style))
-        except pa.ArrowInvalid:
-            continue
-        stream.write(buffer.getvalue())
-        return
 
 
 def estimate_lines(cal: Calibration, lines: Iterable[str], out: IO[str], *, lowpass: LowPass | None = None) -> dict[str, int]:

@@ -34,9 +34,9 @@ from .io import TableError
 READING_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2")
 REFERENCE_COLUMNS = ("fx_N", "fy_N")
 
-#: Bytes of CSV parsed per chunk: ~200k rows of a typical file, a few tens of
+#: Bytes of CSV parsed per chunk: ~100k rows of a typical file, a few tens of
 #: MB of working memory whatever the file size.
-CHUNK_BYTES = 8 << 20
+CHUNK_BYTES = 4 << 20
 
 
 @dataclass(frozen=True)
@@ -47,6 +47,7 @@ class Chunk:
     values: dict[str, np.ndarray]  #: needed column -> float64, NaN where missing or not a number
     malformed: np.ndarray  #: bool, rows with the wrong number of fields
     first_line: int  #: file line of the first row (1 is the header), for messages
+    quoted: bool = True  #: some text field may need quoting when written back as CSV
 
 
 def is_parquet(path: Path) -> bool:
@@ -132,7 +133,8 @@ def _parse_csv(path: Path, data: bytes, names: list[str], needed: tuple[str, ...
     if bad_rows:  # rare: keep every row, in order, by parsing this chunk slowly
         return _parse_csv_slowly(path, data, names, needed, first_line)
     values = {n: _to_float(table.column(n)) for n in needed}
-    return Chunk(table, values, np.zeros(table.num_rows, dtype=bool), first_line)
+    # Unquoted CSV text cannot hold a separator, quote or line end, so it is written back as is.
+    return Chunk(table, values, np.zeros(table.num_rows, dtype=bool), first_line, quoted=b'"' in data)
 
 
 def _parse_csv_slowly(path: Path, data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk:

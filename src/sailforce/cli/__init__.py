@@ -6,6 +6,8 @@ errors (any :class:`sailforce.SailError` or file-system failure).
 
 from __future__ import annotations
 
+import importlib
+
 import click
 
 from .. import __version__
@@ -18,8 +20,32 @@ class DataError(click.ClickException):
     exit_code = 1
 
 
+#: Command name -> the module that defines it.  Modules load on first use, so
+#: ``sail estimate`` does not pay for the plotting and FEM imports.
+_COMMAND_MODULES = {
+    "calibrate": "calibrate_cmd",
+    "demo": "demo_cmd",
+    "estimate": "estimate_cmd",
+    "fit-poly": "fitpoly_cmd",
+    "reproduce": "reproduce_cmd",
+    "robot": "robot_cmd",
+    "simulate": "simulate_cmd",
+    "statics": "statics_cmd",
+    "stress": "stress_cmd",
+    "tare": "calibrate_cmd",
+}
+
+
 class SailGroup(click.Group):
-    """A group that turns library errors into one-line CLI errors."""
+    """A group that loads its commands lazily and turns library errors into one-line CLI errors."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(set(_COMMAND_MODULES) | set(self.commands))
+
+    def get_command(self, ctx: click.Context, name: str):
+        if name not in self.commands and name in _COMMAND_MODULES:
+            importlib.import_module(f"{__name__}.{_COMMAND_MODULES[name]}")  # registers the command
+        return self.commands.get(name)
 
     def invoke(self, ctx: click.Context):
         try:
@@ -48,5 +74,3 @@ def main() -> None:
     """Console-script entry point."""
     cli(prog_name="sail")
 
-
-from . import calibrate_cmd, demo_cmd, estimate_cmd, fitpoly_cmd, reproduce_cmd, robot_cmd, simulate_cmd, statics_cmd, stress_cmd  # noqa: E402,F401  (registers commands)
