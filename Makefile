@@ -4,8 +4,12 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= out/reproduce
+BUILD := build
+VECTORS := $(BUILD)/vectors
+#: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
+EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
 
-.PHONY: demo test bench install clean
+.PHONY: demo test c-test c-default cross bench install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -20,11 +24,36 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/sail reproduce -o $(DEMO_DIR)
 
-test: $(STAMP)
+test: $(STAMP) c-test
 	$(PY) -m pytest
+
+# libsail: shared test vectors from Python, then CTest in float and in double.
+c-test: $(STAMP)
+	$(PY) c/tests/make_vectors.py $(VECTORS)
+	for real in float double; do \
+	  cmake -S c -B $(BUILD)/c-$$real -DSAIL_DOUBLE=$$([ $$real = double ] && echo ON || echo OFF) \
+	        -DSAIL_VECTORS_DIR=$(abspath $(VECTORS)) > /dev/null && \
+	  cmake --build $(BUILD)/c-$$real -j 2 > /dev/null && \
+	  ctest --test-dir $(BUILD)/c-$$real --output-on-failure || exit 1; \
+	done
+
+# libsail and the sketch for Cortex-M4F (-Os), installing Debian's toolchain if missing; prints the code size.
+cross:
+	@command -v arm-none-eabi-gcc > /dev/null || { \
+	  echo "installing gcc-arm-none-eabi and libnewlib-arm-none-eabi (Debian)"; \
+	  $$([ "$$(id -u)" = 0 ] || echo sudo) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $$([ "$$(id -u)" = 0 ] || echo sudo) apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi > /dev/null; }
+	cmake -S c -B $(BUILD)/cross -DCMAKE_TOOLCHAIN_FILE=cmake/cortex-m4f.cmake -DCMAKE_BUILD_TYPE=MinSizeRel \
+	      -DSAIL_BUILD_TESTS=OFF -DSAIL_BUILD_EXAMPLES=OFF -DSAIL_BUILD_FIRMWARE=ON > /dev/null
+	cmake --build $(BUILD)/cross -j 2 > /dev/null
+	python3 c/firmware/report_size.py $(BUILD)/cross
 
 bench: $(STAMP)
 	$(PY) bench/run.py
 
 clean:
-	rm -rf $(VENV) build src/*.egg-info .pytest_cache .hypothesis
+	rm -rf $(VENV) $(BUILD) src/*.egg-info .pytest_cache .hypothesis
+
+# Regenerate the default calibration header after changing c/examples/calibration.json or export-c.
+c-default: $(STAMP)
+	$(VENV)/bin/sail export-c $(EXPORT_DEFAULT)

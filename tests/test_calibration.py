@@ -14,7 +14,7 @@ from sailforce.estimator import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
 from sailforce.fem.model import build_model
 from sailforce.fem.response import simulate_model
 from sailforce.robot import Robot
-from sailforce.synthetic import HX711_COUNTS_PER_MV_V, NoiseModel, recording
+from sailforce.synthetic import HX711_COUNTS_PER_MV_V, NoiseModel, calibration_session, recording
 
 #: Issue 5: the calibrated estimator's force error must stay within this factor of the noise floor.
 NOISE_FLOOR_FACTOR = 1.5
@@ -24,14 +24,7 @@ ROBOT = Robot().with_joints("spring")  # moment-carrying joints: a delta-depende
 
 def calibration_set(seed=1, step_deg=7.5, directions=12):
     """Poses every ``step_deg`` over delta = 15..165 deg at random theta2, ``directions`` 20 N forces each."""
-    rng = np.random.default_rng(seed)
-    delta = np.radians(np.arange(15.0, 165.1, step_deg))
-    theta2 = rng.uniform(-0.5, 0.5, delta.size)
-    phi = np.radians(np.arange(0.0, 360.0, 360.0 / directions))
-    t1, t2 = np.repeat(delta + theta2, phi.size), np.repeat(theta2, phi.size)
-    fx, fy = np.tile(20 * np.cos(phi), delta.size), np.tile(20 * np.sin(phi), delta.size)
-    counts, offsets, _ = recording(ROBOT, t1, t2, fx, fy, seed=seed + 1)
-    return t1, t2, fx, fy, counts, offsets
+    return calibration_session(ROBOT, seed=seed, step_deg=step_deg, directions=directions)
 
 
 @pytest.fixture(scope="module")

@@ -54,3 +54,21 @@ def recording(robot: Robot, theta1, theta2, fx, fy, *, noise: NoiseModel = Noise
     if noise.quantize:
         counts = np.round(counts)
     return counts, np.asarray(offsets, float), clean
+
+
+def calibration_session(robot: Robot, *, seed: int = 1, step_deg: float = 7.5, directions: int = 12,
+                        force_N: float = 20.0, noise: NoiseModel = NoiseModel()):  # fmt: skip
+    """A pulley-and-weights session: poses every ``step_deg`` over delta = 15..165 deg at random theta2,
+    ``directions`` forces of ``force_N`` at each.
+
+    Returns ``(theta1, theta2, fx, fy, counts, offsets)``: angles [rad], forces [N],
+    raw counts ``(n, 2)`` from :func:`recording`, and the offsets used.
+    """
+    rng = np.random.default_rng(seed)
+    delta = np.radians(np.arange(15.0, 165.0 + 1e-9, step_deg))
+    theta2 = rng.uniform(-0.5, 0.5, delta.size)
+    phi = np.radians(np.arange(0.0, 360.0, 360.0 / directions))
+    t1, t2 = np.repeat(delta + theta2, phi.size), np.repeat(theta2, phi.size)
+    fx, fy = np.tile(force_N * np.cos(phi), delta.size), np.tile(force_N * np.sin(phi), delta.size)
+    counts, offsets, _ = recording(robot, t1, t2, fx, fy, noise=noise, seed=seed + 1)
+    return t1, t2, fx, fy, counts, offsets

@@ -26,6 +26,7 @@ _COMMAND_MODULES = {
     "calibrate": "calibrate_cmd",
     "demo": "demo_cmd",
     "estimate": "estimate_cmd",
+    "export-c": "export_cmd",
     "fit-poly": "fitpoly_cmd",
     "reproduce": "reproduce_cmd",
     "robot": "robot_cmd",

@@ -1,0 +1,137 @@
+"""Shared test vectors for libsail, made by the Python toolkit (issue 6).
+
+Usage: ``python c/tests/make_vectors.py OUTDIR``
+
+For each model kind that ``sail calibrate`` produces (matrix, seed) it:
+
+1. synthesizes a pulley-and-weights session on a spring-jointed arm
+   (:func:`sailforce.synthetic.calibration_session`) and writes it as CSV;
+2. runs ``sail calibrate --model KIND`` and ``sail export-c`` on it, giving
+   ``cal_KIND.json`` and ``cal_KIND.h`` (constant ``sail_cal_KIND``);
+3. writes ``vectors_KIND.csv``: readings and what
+   :meth:`sailforce.calfile.Calibration.estimate` returns for them, covering
+   every status, status precedence, and NaN and infinite fields.
+
+It also writes ``lowpass.csv``, a reading sequence with invalid rows and the
+loads :class:`sailforce.filters.LowPass` makes of it, for the filter exported
+with the matrix calibration (``sail_cal_matrix_lowpass``).
+
+Readings keep clear of every status threshold (relative margins of 1e-3 or
+more), so that a float build, whose inputs are rounded to 24 bits, must give
+the same statuses; offset-free loads are at least 5 % of capacity, so forces
+compare norm-wise (|dF| <= rtol |F|).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from sailforce.calfile import Calibration
+from sailforce.estimator import DELTA_RANGE_SLACK
+from sailforce.filters import LowPass
+from sailforce.robot import Robot
+from sailforce.statics import SINGULAR_SIN_DELTA
+from sailforce.synthetic import calibration_session
+
+KINDS = ("matrix", "seed")
+LOWPASS = {"cutoff_hz": 5.0, "sample_rate_hz": 100.0, "order": 4}
+N_REGULAR = 400
+
+
+def _sail(*args: str) -> None:
+    subprocess.run([sys.executable, "-m", "sailforce.cli", *args], check=True, capture_output=True, text=True)
+
+
+def _write_csv(path: Path, header: list[str], rows: np.ndarray) -> None:
+    with open(path, "w", encoding="utf-8") as out:
+        out.write(",".join(header) + "\n")
+        for row in rows:
+            out.write(",".join(repr(float(v)) for v in row) + "\n")
+
+
+def _readings(cal: Calibration, rng: np.random.Generator) -> np.ndarray:
+    """``(n, 4)`` readings (theta1, theta2, load1, load2): every status, clear of the thresholds."""
+    lo, hi = cal.delta_range
+    offsets, capacity = np.asarray(cal.offsets), np.asarray(cal.capacity)
+
+    def loads(n, low=0.05, high=0.9):  # offset-free magnitude as a fraction of capacity, random sign
+        return offsets + rng.choice([-1.0, 1.0], (n, 2)) * rng.uniform(low, high, (n, 2)) * capacity
+
+    def poses(delta):
+        theta2 = rng.uniform(-1.0, 1.0, delta.size)
+        return np.column_stack([theta2 + delta, theta2])
+
+    margin = 1e-3
+    inside = rng.uniform(lo + margin, hi - margin, N_REGULAR)
+    below = rng.uniform(np.radians(2.5), lo - DELTA_RANGE_SLACK - margin, 40)  # extrapolated, not singular
+    above = rng.uniform(hi + DELTA_RANGE_SLACK + margin, np.pi - np.radians(2.5), 40)
+    negative = -rng.uniform(np.radians(5.0), np.radians(175.0), 20)  # the other assembly: extrapolated
+    limit = np.arcsin(SINGULAR_SIN_DELTA) * (1.0 - 0.05)
+    singular = np.concatenate([rng.uniform(-limit, limit, 20), np.pi + rng.uniform(-limit, limit, 10)])
+    blocks = [
+        np.column_stack([poses(inside), loads(N_REGULAR)]),
+        np.column_stack([poses(np.concatenate([below, above, negative])), loads(100)]),
+        np.column_stack([poses(singular), loads(30)]),
+        np.column_stack([poses(inside[:30]), loads(30, 1.01, 1.5)]),  # saturated
+        np.column_stack([poses(below[:10]), loads(10, 1.01, 1.5)]),  # saturated beats extrapolated
+        np.column_stack([poses(singular[:10]), loads(10, 1.01, 1.5)]),  # singular beats saturated
+    ]
+    invalid = np.column_stack([poses(inside[:24]), loads(24)])
+    for i, bad in enumerate((np.nan, np.inf, -np.inf)):
+        for field in range(4):
+            invalid[8 * i + 2 * field : 8 * i + 2 * field + 2, field] = bad
+    invalid[-2:, 0] = 0.0  # invalid beats singular
+    invalid[-2:, 1] = 0.0
+    invalid[-2:, 2] = np.nan
+    return np.vstack(blocks + [invalid])
+
+
+def _lowpass_vectors(cal: Calibration, rng: np.random.Generator) -> np.ndarray:
+    """Readings with steps, noise and invalid rows; the loads after the Python filter."""
+    n = 600
+    theta2 = rng.uniform(-0.5, 0.5, n)
+    theta1 = theta2 + np.radians(90.0)
+    step = np.where(np.arange(n) > n // 3, 0.4, -0.2)[:, None] * np.asarray(cal.capacity)
+    load = np.asarray(cal.offsets) + step + rng.normal(0.0, 1e-3, (n, 2)) * np.asarray(cal.capacity)
+    readings = np.column_stack([theta1, theta2, load])
+    readings[[0, 1, 50, 51, 52, 300], [2, 0, 3, 1, 2, 3]] = [np.nan, np.inf, np.nan, -np.inf, np.nan, np.inf]
+    valid = np.all(np.isfinite(readings), axis=1)
+    filtered = LowPass(**LOWPASS).process(readings[:, 2:], valid)
+    return np.column_stack([readings, filtered])
+
+
+def main(outdir: Path) -> None:
+    outdir.mkdir(parents=True, exist_ok=True)
+    robot = Robot().with_joints("spring")  # moment-carrying joints: a delta-dependent map
+    t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=11)
+    session = outdir / "session.csv"
+    _write_csv(session, ["theta1_deg", "theta2_deg", "load1", "load2", "fx_N", "fy_N"],
+               np.column_stack([np.degrees(t1), np.degrees(t2), counts, fx, fy]))  # fmt: skip
+    rng = np.random.default_rng(5)
+    for kind in KINDS:
+        cal_path = outdir / f"cal_{kind}.json"
+        _sail("calibrate", str(session), "-o", str(cal_path), "--model", kind)
+        extra = []
+        if kind == "matrix":
+            extra = ["--lowpass-hz", str(LOWPASS["cutoff_hz"]), "--sample-rate-hz", str(LOWPASS["sample_rate_hz"]),
+                     "--lowpass-order", str(LOWPASS["order"])]  # fmt: skip
+        _sail("export-c", str(cal_path), "-o", str(outdir / f"cal_{kind}.h"), "--name", f"sail_cal_{kind}", *extra)
+        cal = Calibration.load(cal_path)
+        readings = _readings(cal, rng)
+        fx_hat, fy_hat, status = cal.estimate(*readings.T)
+        _write_csv(outdir / f"vectors_{kind}.csv", ["theta1", "theta2", "load1", "load2", "fx", "fy", "status"],
+                   np.column_stack([readings, fx_hat, fy_hat, status]))  # fmt: skip
+        if kind == "matrix":
+            _write_csv(outdir / "lowpass.csv", ["theta1", "theta2", "load1", "load2", "out1", "out2"],
+                       _lowpass_vectors(cal, rng))  # fmt: skip
+    print(f"wrote libsail test vectors to {outdir}")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        sys.exit("usage: make_vectors.py OUTDIR")
+    main(Path(sys.argv[1]))

@@ -1,0 +1,231 @@
+/*
+ * libsail against analytic results, without the Python toolkit:
+ * a statically determinate arm (pin joints) has signals s_i = g_i T_i with
+ * T = J^T F (seed Eq. 7), i.e. a matrix model of order 0, C = diag(g1, g2).
+ * Gains of tens of thousands of counts per N m are an HX711's on a bonded cell.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "check.h"
+#include "sail.h"
+
+static const double PI = 3.14159265358979323846;
+static const double G1 = 74000.0, G2 = 52800.0;  /* raw units (counts) per N m */
+static const double L2 = 0.3, L3 = 0.45;
+
+static sail_calibration pin_calibration(void)
+{
+    sail_calibration cal;
+    memset(&cal, 0, sizeof cal);
+    cal.kind = SAIL_MODEL_MATRIX;
+    cal.l2 = (sail_real)L2;
+    cal.l3 = (sail_real)L3;
+    cal.offset[0] = 100;
+    cal.offset[1] = -50;
+    cal.capacity[0] = cal.capacity[1] = 4e6;
+    cal.delta_min = (sail_real)(15 * PI / 180);
+    cal.delta_max = (sail_real)(165 * PI / 180);
+    cal.n_terms = 1;
+    cal.cheb_lo = cal.delta_min;
+    cal.cheb_hi = cal.delta_max;
+    cal.cheb[0][0][0] = (sail_real)G1;
+    cal.cheb[0][1][1] = (sail_real)G2;
+    return cal;
+}
+
+/* The raw readings a pin-jointed arm gives for force (fx, fy) at (t1, t2). */
+static sail_reading reading_for(const sail_calibration *cal, double t1, double t2, double fx, double fy)
+{
+    sail_reading r;
+    const double tq1 = L3 * (-sin(t1) * fx + cos(t1) * fy), tq2 = L2 * (-sin(t2) * fx + cos(t2) * fy);
+    r.theta1 = (sail_real)t1;
+    r.theta2 = (sail_real)t2;
+    r.load1 = (sail_real)(cal->offset[0] + G1 * tq1);
+    r.load2 = (sail_real)(cal->offset[1] + G2 * tq2);
+    return r;
+}
+
+static void test_square_pose(void)
+{
+    /* theta1 = 90 deg, theta2 = 0: T1 = -l3 fx, T2 = l2 fy, so loads (0, 3 G2) above offset mean F = (0, 10) N. */
+    const sail_calibration cal = pin_calibration();
+    sail_reading r = {(sail_real)(PI / 2), 0, 100, (sail_real)(-50 + 3.0 * G2)};
+    sail_force f;
+    CHECK(sail_estimate(&cal, &r, &f) == SAIL_OK, "status %d", f.status);
+    CHECK_CLOSE(f.fx, 0.0, 10.0, SAIL_TEST_RTOL);
+    CHECK_CLOSE(f.fy, 10.0, 10.0, SAIL_TEST_RTOL);
+}
+
+static void test_round_trip_over_workspace(void)
+{
+    const sail_calibration cal = pin_calibration();
+    double d, t2, phi;
+    for (d = 20; d <= 160; d += 10)
+        for (t2 = -60; t2 <= 60; t2 += 30)
+            for (phi = 0; phi < 360; phi += 45) {
+                const double fx = 25 * cos(phi * PI / 180), fy = 25 * sin(phi * PI / 180);
+                const sail_reading r = reading_for(&cal, (d + t2) * PI / 180, t2 * PI / 180, fx, fy);
+                sail_force f;
+                CHECK(sail_estimate(&cal, &r, &f) == SAIL_OK, "delta %g: status %d", d, f.status);
+                /* cond(J) <= 1 / sin 20 deg amplifies the rounding of angles and loads */
+                CHECK_CLOSE(f.fx, fx, 25.0, 30 * SAIL_TEST_RTOL);
+                CHECK_CLOSE(f.fy, fy, 25.0, 30 * SAIL_TEST_RTOL);
+            }
+}
+
+static void test_statuses_and_precedence(void)
+{
+    const sail_calibration cal = pin_calibration();
+    sail_reading r = reading_for(&cal, PI / 2, 0, 3, 4);
+    sail_force f;
+    sail_reading bad;
+
+    bad = r;
+    bad.load2 = (sail_real)NAN;
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_INVALID && isnan(f.fx) && isnan(f.fy), "NaN load: status %d", f.status);
+    bad = r;
+    bad.theta1 = (sail_real)INFINITY;
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_INVALID, "infinite angle: status %d", f.status);
+
+    bad = r;
+    bad.theta1 = (sail_real)(1.0 * PI / 180);  /* delta = 1 deg < 2 deg */
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_SINGULAR && isnan(f.fx), "delta 1 deg: status %d", f.status);
+    bad.theta1 = (sail_real)(PI + 0.5 * PI / 180);  /* delta = 180.5 deg */
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_SINGULAR, "delta 180.5 deg: status %d", f.status);
+    bad.theta1 = (sail_real)(3.0 * PI / 180);  /* 3 deg: estimated, but outside 15..165 */
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_EXTRAPOLATED && !isnan(f.fx), "delta 3 deg: status %d", f.status);
+    bad.theta1 = (sail_real)(170.0 * PI / 180);
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_EXTRAPOLATED, "delta 170 deg: status %d", f.status);
+
+    bad = r;
+    bad.load1 = cal.offset[0] + (sail_real)4.5e6;  /* capacity 4e6 */
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_SATURATED && !isnan(f.fx), "over capacity: status %d", f.status);
+    bad.theta1 = (sail_real)(170.0 * PI / 180);
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_SATURATED, "saturated beats extrapolated: status %d", f.status);
+    bad.theta1 = 0;
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_SINGULAR, "singular beats saturated: status %d", f.status);
+    bad.load2 = (sail_real)NAN;
+    CHECK(sail_estimate(&cal, &bad, &f) == SAIL_INVALID, "invalid beats singular: status %d", f.status);
+}
+
+static void test_degenerate_and_unknown_models(void)
+{
+    sail_calibration cal = pin_calibration();
+    const sail_reading r = reading_for(&cal, PI / 2, 0, 3, 4);
+    sail_force f;
+    cal.cheb[0][1][1] = 0;  /* one cell reads nothing: the map cannot be inverted */
+    CHECK(sail_estimate(&cal, &r, &f) == SAIL_SINGULAR && isnan(f.fy), "degenerate map: status %d", f.status);
+    cal = pin_calibration();
+    cal.kind = 99;
+    CHECK(sail_estimate(&cal, &r, &f) == SAIL_INVALID, "unknown kind: status %d", f.status);
+}
+
+static void test_seed_model_matches_matrix(void)
+{
+    /* A_i = 1 / g_i, P_i = 0 is the same map as C = diag(g1, g2); P_1 = 90 deg turns row 1 by -90 deg. */
+    const sail_calibration matrix = pin_calibration();
+    sail_calibration seed = matrix;
+    const sail_reading r = reading_for(&matrix, 1.9, 0.3, -7, 12);
+    sail_force a, b;
+    seed.kind = SAIL_MODEL_SEED;
+    seed.amplitude_terms[0] = seed.amplitude_terms[1] = 2;
+    seed.phase_terms[0] = seed.phase_terms[1] = 1;
+    seed.amplitude[0][0] = 0; seed.amplitude[0][1] = (sail_real)(1 / G1);  /* 0 * delta_deg + 1 / g1 */
+    seed.amplitude[1][0] = 0; seed.amplitude[1][1] = (sail_real)(1 / G2);
+    seed.phase_deg[0][0] = seed.phase_deg[1][0] = 0;
+    sail_estimate(&matrix, &r, &a);
+    CHECK(sail_estimate(&seed, &r, &b) == SAIL_OK, "status %d", b.status);
+    CHECK_CLOSE(b.fx, a.fx, 14.0, 10 * SAIL_TEST_RTOL);
+    CHECK_CLOSE(b.fy, a.fy, 14.0, 10 * SAIL_TEST_RTOL);
+    {
+        /* P_1 = 90 deg: s_1 = g1 R(-90) j_1 . F = g1 (j_1y, -j_1x) . F */
+        const double t1 = 1.9, t2 = 0.3, fx = -7, fy = 12;
+        sail_reading q = reading_for(&matrix, t1, t2, fx, fy);
+        q.load1 = (sail_real)(matrix.offset[0] + G1 * L3 * (cos(t1) * fx + sin(t1) * fy));
+        seed.phase_deg[0][0] = 90;
+        CHECK(sail_estimate(&seed, &q, &b) == SAIL_OK, "status %d", b.status);
+        CHECK_CLOSE(b.fx, fx, 14.0, 10 * SAIL_TEST_RTOL);
+        CHECK_CLOSE(b.fy, fy, 14.0, 10 * SAIL_TEST_RTOL);
+    }
+}
+
+static void test_block(void)
+{
+    const sail_calibration cal = pin_calibration();
+    sail_reading in[3];
+    sail_force out[3], one;
+    int i;
+    in[0] = reading_for(&cal, 2.0, 0.5, 1, 2);
+    in[1] = in[0];
+    in[1].theta2 = (sail_real)NAN;
+    in[2] = reading_for(&cal, 1.0, -0.5, -3, 2);
+    CHECK(sail_estimate_block(&cal, in, out, 3) == 2, "two of three are ok");
+    for (i = 0; i < 3; i++) {
+        sail_estimate(&cal, &in[i], &one);
+        CHECK(one.status == out[i].status && (isnan(one.fx) ? isnan(out[i].fx) : one.fx == out[i].fx), "block row %d", i);
+    }
+    CHECK(sail_calibration_real_size() == sizeof(sail_real), "real size %u", (unsigned)sail_calibration_real_size());
+}
+
+static void test_tare(void)
+{
+    sail_calibration cal = pin_calibration();
+    sail_tare_state tare;
+    sail_reading r[12];
+    sail_real spread[2];
+    int i;
+    sail_tare_init(&tare);
+    CHECK(sail_tare_finish(&tare, &cal, spread) == -1 && cal.offset[0] == 100, "no readings: offsets kept");
+    for (i = 0; i < 12; i++) {
+        r[i].theta1 = r[i].theta2 = 0;
+        r[i].load1 = (sail_real)(1000 + i);  /* 1000..1009 valid: mean 1004.5, sample std sqrt(55/6) */
+        r[i].load2 = (sail_real)(-2 * i);
+    }
+    r[10].load1 = (sail_real)NAN;  /* skipped */
+    r[11].load2 = (sail_real)INFINITY;
+    sail_tare_process(&tare, r, 5);
+    sail_tare_process(&tare, r + 5, 7);
+    CHECK(tare.count == 10, "count %lu", tare.count);
+    CHECK(sail_tare_finish(&tare, &cal, spread) == 0, "finish");
+    CHECK_CLOSE(cal.offset[0], 1004.5, 1004.5, SAIL_TEST_RTOL);
+    CHECK_CLOSE(cal.offset[1], -9.0, 9.0, SAIL_TEST_RTOL);
+    CHECK_CLOSE(spread[0], sqrt(55.0 / 6.0), 3.0, SAIL_TEST_RTOL);
+    CHECK_CLOSE(spread[1], 2 * sqrt(55.0 / 6.0), 6.0, SAIL_TEST_RTOL);
+}
+
+static void test_lowpass_first_order(void)
+{
+    /* y[n] = 0.5 x[n] + 0.5 y[n-1]: unit DC gain; b = (0.5, 0, 0), a = (1, -0.5, 0); steady state z0 = 0.5 x. */
+    static const sail_lowpass design = {1, {{0.5, 0, 0, 1, -0.5, 0}}, {{0.5, 0}}};
+    sail_lowpass_state state;
+    sail_reading r[5];
+    int i;
+    for (i = 0; i < 5; i++) {
+        r[i].theta1 = 1;
+        r[i].theta2 = 0;
+        r[i].load1 = 3;
+        r[i].load2 = -2;
+    }
+    r[1].theta2 = (sail_real)NAN;  /* skipped: neither enters nor advances the filter */
+    r[3].load1 = r[4].load1 = 5;   /* step */
+    sail_lowpass_init(&state, &design);
+    sail_lowpass_process(&state, r, 2);
+    sail_lowpass_process(&state, r + 2, 3);
+    CHECK(r[0].load1 == 3 && r[0].load2 == -2 && r[2].load1 == 3, "steady from the first reading: %g %g", (double)r[0].load1, (double)r[2].load1);
+    CHECK(isnan(r[1].load1) && isnan(r[1].load2), "invalid reading's loads become NaN");
+    CHECK(r[3].load1 == 4 && r[4].load1 == (sail_real)4.5 && r[4].load2 == -2, "step response %g %g", (double)r[3].load1, (double)r[4].load1);
+}
+
+int main(void)
+{
+    test_square_pose();
+    test_round_trip_over_workspace();
+    test_statuses_and_precedence();
+    test_degenerate_and_unknown_models();
+    test_seed_model_matches_matrix();
+    test_block();
+    test_tare();
+    test_lowpass_first_order();
+    return check_report("test_api");
+}

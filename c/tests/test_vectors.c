@@ -1,0 +1,145 @@
+/*
+ * libsail against the Python toolkit's shared test vectors (c/tests/make_vectors.py):
+ *   test_vectors matrix|seed VECTORS.csv   sail_estimate vs Calibration.estimate
+ *   test_vectors lowpass LOWPASS.csv        sail_lowpass_process vs sailforce.filters.LowPass
+ * Statuses must be identical; forces agree norm-wise, |dF| <= SAIL_TEST_RTOL |F|.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cal_matrix.h"
+#include "cal_seed.h"
+#include "check.h"
+#include "sail.h"
+
+#define MAX_ROWS 4096
+#define COLUMNS 7
+
+/* Rows of numbers below a header line; returns the row count, or -1. */
+static int read_rows(const char *path, double rows[][COLUMNS], int columns)
+{
+    char line[1024];
+    int n = 0;
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        fprintf(stderr, "%s: cannot open\n", path);
+        return -1;
+    }
+    if (!fgets(line, sizeof line, f)) {
+        fclose(f);
+        return -1;
+    }
+    while (n < MAX_ROWS && fgets(line, sizeof line, f)) {
+        char *p = line, *end;
+        int c;
+        for (c = 0; c < columns; c++) {
+            rows[n][c] = strtod(p, &end);  /* C99 strtod reads nan, inf, -inf */
+            if (end == p) {
+                fprintf(stderr, "%s: row %d, column %d is not a number\n", path, n + 2, c + 1);
+                fclose(f);
+                return -1;
+            }
+            p = (*end == ',') ? end + 1 : end;
+        }
+        n++;
+    }
+    fclose(f);
+    return n;
+}
+
+static double rows[MAX_ROWS][COLUMNS];
+
+static sail_reading reading(const double *row)
+{
+    sail_reading r;
+    r.theta1 = (sail_real)row[0];
+    r.theta2 = (sail_real)row[1];
+    r.load1 = (sail_real)row[2];
+    r.load2 = (sail_real)row[3];
+    return r;
+}
+
+static int estimate_vectors(const sail_calibration *cal, const char *path)
+{
+    int i, n = read_rows(path, rows, 7), counts[5] = {0, 0, 0, 0, 0};
+    double worst = 0;
+    CHECK(n > 0, "no vectors in %s", path);
+    for (i = 0; i < n; i++) {
+        const sail_reading r = reading(rows[i]);
+        const int expected = (int)rows[i][6];
+        sail_force f;
+        const int status = sail_estimate(cal, &r, &f);
+        CHECK(status == expected && f.status == status, "row %d: status %d, Python %d", i + 2, status, expected);
+        if (expected == SAIL_INVALID || expected == SAIL_SINGULAR) {
+            CHECK(isnan(f.fx) && isnan(f.fy), "row %d: no estimate expected", i + 2);
+        } else {
+            const double norm = hypot(rows[i][4], rows[i][5]);
+            const double err = hypot((double)f.fx - rows[i][4], (double)f.fy - rows[i][5]);
+            CHECK(err <= SAIL_TEST_RTOL * norm, "row %d: F (%.17g, %.17g), Python (%.17g, %.17g)",
+                  i + 2, (double)f.fx, (double)f.fy, rows[i][4], rows[i][5]);
+            if (err / norm > worst)
+                worst = err / norm;
+        }
+        if (expected >= 0 && expected < 5)
+            counts[expected]++;
+    }
+    for (i = 0; i < 5; i++)
+        CHECK(counts[i] > 0, "the vectors lack status %d", i);
+    printf("%s: %d vectors (ok %d, singular %d, saturated %d, extrapolated %d, invalid %d); worst |dF|/|F| %.3g\n",
+           path, n, counts[0], counts[1], counts[2], counts[3], counts[4], worst);
+    return 0;
+}
+
+static int lowpass_vectors(const char *path)
+{
+    static sail_reading block[MAX_ROWS];
+    static const size_t sizes[] = {1, 7, 64, 3, 200};  /* the state must carry across blocks of any size */
+    sail_lowpass_state state;
+    int i, n = read_rows(path, rows, 6);
+    size_t done = 0, k = 0;
+    double scale = 0;
+    CHECK(n > 0, "no vectors in %s", path);
+    for (i = 0; i < n; i++) {
+        block[i] = reading(rows[i]);
+        if (isfinite(rows[i][4]) && fabs(rows[i][4]) > scale)
+            scale = fabs(rows[i][4]);
+    }
+    sail_lowpass_init(&state, &sail_cal_matrix_lowpass);
+    while (done < (size_t)n) {
+        size_t size = sizes[k++ % (sizeof sizes / sizeof sizes[0])];
+        if (size > (size_t)n - done)
+            size = (size_t)n - done;
+        sail_lowpass_process(&state, block + done, size);
+        done += size;
+    }
+    for (i = 0; i < n; i++) {
+        if (isnan(rows[i][4])) {
+            CHECK(isnan(block[i].load1) && isnan(block[i].load2), "row %d: skipped reading should give NaN", i + 2);
+            continue;
+        }
+        CHECK_CLOSE(block[i].load1, rows[i][4], scale, 10 * SAIL_TEST_RTOL);
+        CHECK_CLOSE(block[i].load2, rows[i][5], scale, 10 * SAIL_TEST_RTOL);
+    }
+    printf("%s: %d filtered readings\n", path, n);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc != 3) {
+        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass FILE.csv\n");
+        return 2;
+    }
+    if (!strcmp(argv[1], "matrix"))
+        estimate_vectors(&sail_cal_matrix, argv[2]);
+    else if (!strcmp(argv[1], "seed"))
+        estimate_vectors(&sail_cal_seed, argv[2]);
+    else if (!strcmp(argv[1], "lowpass"))
+        lowpass_vectors(argv[2]);
+    else {
+        fprintf(stderr, "unknown vector set %s\n", argv[1]);
+        return 2;
+    }
+    return check_report(argv[1]);
+}

@@ -1,0 +1,130 @@
+"""Calibrations (and low-pass designs) as C initializers for libsail (``c/include/sail.h``).
+
+:func:`calibration_header` writes a header holding
+``static const sail_calibration NAME = {...};``: the same numbers as the
+calibration file, in the layout of ``struct sail_calibration``, so that
+``sail_estimate`` on the microcontroller computes what
+:meth:`sailforce.calfile.Calibration.estimate` computes on the PC.  Every
+literal goes through ``SAIL_REAL()`` with 17 significant digits, exact in a
+double build and rounded once in a float build.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from .calfile import Calibration
+from .compensation import MatrixCompensator
+from .errors import SailError
+from .filters import LowPass
+
+#: ``SAIL_MAX_TERMS`` in sail.h: coefficients per series (Chebyshev or power).
+MAX_TERMS = 9
+#: ``SAIL_MAX_SECTIONS`` in sail.h: second-order sections (Butterworth order <= 8).
+MAX_SECTIONS = 4
+
+_C_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+class ExportError(SailError):
+    """A calibration or name that libsail cannot hold."""
+
+
+def _real(x: float) -> str:
+    x = float(x)
+    if not np.isfinite(x):
+        raise ExportError(f"cannot export the non-finite value {x!r}")
+    return f"SAIL_REAL({x!r})"
+
+
+def _array(values, broken: bool = False) -> str:
+    """A nested C initializer ``{...}`` for an array of numbers; ``broken``: one top-level element per line."""
+    values = np.asarray(values, dtype=float)
+    if values.ndim == 1:
+        return "{" + ", ".join(_real(v) for v in values) + "}"
+    if broken:
+        return "{\n        " + ",\n        ".join(_array(v) for v in values) + ",\n    }"
+    return "{" + ", ".join(_array(v) for v in values) + "}"
+
+
+def _padded(rows: list, width: int) -> list:
+    return [list(r) + [0.0] * (width - len(r)) for r in rows]
+
+
+def _check_name(name: str) -> None:
+    if not _C_NAME.match(name):
+        raise ExportError(f"--name {name!r} is not a C identifier (letters, digits and _, not starting with a digit)")
+
+
+def calibration_fields(cal: Calibration) -> list[tuple[str, str]]:
+    """``(member, initializer)`` pairs of ``struct sail_calibration`` for ``cal``."""
+    arm = cal.arm
+    fields = [
+        ("l2", _real(arm.l2)),
+        ("l3", _real(arm.l3)),
+        ("offset", _array(cal.offsets)),
+        ("capacity", _array(cal.capacity)),
+        ("delta_min", _real(cal.delta_range[0])),
+        ("delta_max", _real(cal.delta_range[1])),
+    ]
+    model = cal.model
+    if isinstance(model, MatrixCompensator):
+        c = np.asarray(model.coefficients, dtype=float)
+        if c.shape[0] > MAX_TERMS:
+            raise ExportError(f"the matrix model has order {c.shape[0] - 1}; libsail holds order <= {MAX_TERMS - 1}")
+        padded = np.zeros((MAX_TERMS, 2, 2))
+        padded[: c.shape[0]] = c
+        return [("kind", "SAIL_MODEL_MATRIX"), *fields, ("n_terms", str(c.shape[0])),
+                ("cheb_lo", _real(model.delta_range[0])), ("cheb_hi", _real(model.delta_range[1])),
+                ("cheb", _array(padded, broken=True))]  # fmt: skip
+    amplitude = [fit.coefficients for fit in model.amplitude]
+    phase = [fit.coefficients for fit in model.phase_deg]
+    longest = max(len(p) for p in amplitude + phase)
+    if longest > MAX_TERMS:
+        raise ExportError(f"the seed model has a polynomial of order {longest - 1}; libsail holds order <= {MAX_TERMS - 1}")
+    return [("kind", "SAIL_MODEL_SEED"), *fields,
+            ("amplitude_terms", "{" + ", ".join(str(len(p)) for p in amplitude) + "}"),
+            ("phase_terms", "{" + ", ".join(str(len(p)) for p in phase) + "}"),
+            ("amplitude", _array(_padded(amplitude, MAX_TERMS), broken=True)),
+            ("phase_deg", _array(_padded(phase, MAX_TERMS), broken=True))]  # fmt: skip
+
+
+def lowpass_fields(lowpass: LowPass) -> list[tuple[str, str]]:
+    """``(member, initializer)`` pairs of ``struct sail_lowpass``: the SOS and their unit steady state."""
+    from scipy import signal
+
+    sos = np.asarray(lowpass.sos, dtype=float)
+    if sos.shape[0] > MAX_SECTIONS:
+        raise ExportError(f"a low-pass of {sos.shape[0]} sections; libsail holds <= {MAX_SECTIONS} (order <= 8)")
+    zi = signal.sosfilt_zi(sos)
+    pad = MAX_SECTIONS - sos.shape[0]
+    return [("n_sections", str(sos.shape[0])),
+            ("sos", _array(np.vstack([sos, np.zeros((pad, 6))]), broken=True)),
+            ("zi", _array(np.vstack([zi, np.zeros((pad, 2))]), broken=True))]  # fmt: skip
+
+
+def _initializer(ctype: str, name: str, fields: list[tuple[str, str]]) -> str:
+    body = "".join(f"    .{member} = {value},\n" for member, value in fields)
+    return f"static const {ctype} {name} = {{\n{body}}};\n"
+
+
+def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str = "", lowpass: LowPass | None = None) -> str:
+    """The text of a C header defining ``name`` (and ``name_lowpass`` when a filter is given)."""
+    _check_name(name)
+    guard = f"SAIL_CALIBRATION_{name.upper()}_H"
+    lo, hi = np.degrees(cal.delta_range)
+    lines = [
+        f"/* Generated by {cal.software.split(' ')[0]} `sail export-c`{' from ' + source if source else ''}; do not edit.",
+        f" * Calibration created {cal.created or 'unknown'} by {cal.software}; data sha256 {cal.data_sha256 or 'unknown'}.",
+        f" * Model {cal.kind}; delta calibrated over {lo:.6g} .. {hi:.6g} deg; loads in {cal.load_unit}.",
+    ]
+    if lowpass is not None:
+        lines.append(f" * Low-pass: Butterworth order {lowpass.order}, {lowpass.cutoff_hz:g} Hz at {lowpass.sample_rate_hz:g} Hz.")
+    text = "\n".join(lines) + " */\n"
+    text += f"#ifndef {guard}\n#define {guard}\n\n#include \"sail.h\"\n\n"
+    text += _initializer("sail_calibration", name, calibration_fields(cal))
+    if lowpass is not None:
+        text += "\n" + _initializer("sail_lowpass", f"{name}_lowpass", lowpass_fields(lowpass))
+    return text + f"\n#endif /* {guard} */\n"

@@ -1,0 +1,149 @@
+"""libsail's Python side: `sail export-c`, constants shared with sail.h, and the C stream example against `sail estimate`.
+
+The C library's own tests (analytic, and the shared vectors of
+c/tests/make_vectors.py in float and double) run under CTest: `make c-test`.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import shlex
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from sailforce import SINGULAR_SIN_DELTA, Arm
+from sailforce.calfile import Calibration
+from sailforce.cli import cli
+from sailforce.compensation import AmplitudePhaseCompensator, MatrixCompensator
+from sailforce.estimator import DELTA_RANGE_SLACK, STATUS_NAMES
+from sailforce.export_c import MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
+from sailforce.regressors import PolynomialFit
+from sailforce.streaming import estimate_lines
+
+ROOT = Path(__file__).resolve().parents[1]
+HEADER = (ROOT / "c" / "include" / "sail.h").read_text()
+
+
+def _define(name: str) -> str:
+    match = re.search(rf"^#define {name} (\S+)", HEADER, re.MULTILINE)
+    assert match, f"sail.h lacks #define {name}"
+    return match.group(1)
+
+
+def test_header_constants_match_python():
+    assert float(_define("SAIL_SINGULAR_SIN_DELTA")) == pytest.approx(SINGULAR_SIN_DELTA, rel=1e-15)
+    assert float(_define("SAIL_DELTA_RANGE_SLACK")) == pytest.approx(DELTA_RANGE_SLACK, rel=1e-15)
+    assert int(_define("SAIL_MAX_TERMS")) == MAX_TERMS
+    assert int(_define("SAIL_MAX_SECTIONS")) == MAX_SECTIONS
+    statuses = re.search(r"enum \{\s*(SAIL_OK.*?)\};", HEADER, re.DOTALL).group(1)
+    names = [n.lower() for n in re.findall(r"SAIL_([A-Z]+),?\s*/\*", statuses)]
+    assert names == list(STATUS_NAMES)
+
+
+def test_default_header_is_current(tmp_path):
+    """c/examples/sail_calibration.h is what `sail export-c` makes of c/examples/calibration.json (Makefile EXPORT_DEFAULT)."""
+    line = re.search(r"^EXPORT_DEFAULT := (.+)$", (ROOT / "Makefile").read_text(), re.MULTILINE).group(1)
+    args = shlex.split(line)
+    committed = ROOT / args[args.index("-o") + 1]
+    args[args.index("-o") + 1] = str(tmp_path / committed.name)
+    args[0] = str(ROOT / args[0])
+    result = CliRunner().invoke(cli, ["export-c", *args])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / committed.name).read_text() == committed.read_text(), "run `make c-default`"
+
+
+def _matrix_cal(terms: int) -> Calibration:
+    arm = Arm()
+    c = np.zeros((terms, 2, 2))
+    c[0] = np.diag([74000.0, 52800.0])
+    return Calibration(arm, MatrixCompensator(arm, c, (0.3, 2.8)), (1.0, 2.0), (4e6, 4e6), (0.3, 2.8))
+
+
+def _seed_cal(amplitude_terms: int) -> Calibration:
+    arm = Arm()
+    fit = lambda coefficients: PolynomialFit(len(coefficients) - 1, tuple(coefficients), 1.0, 1.0, "cv", 0.0, True)  # noqa: E731
+    model = AmplitudePhaseCompensator(arm, (fit([1e-6] * amplitude_terms), fit([2e-5])), (fit([0.1, 3.0]), fit([-2.0])), (0.3, 2.8))
+    return Calibration(arm, model, (1.0, 2.0), (4e6, 4e6), (0.3, 2.8))
+
+
+def test_export_writes_every_member_of_each_kind():
+    matrix = calibration_header(_matrix_cal(3), "cal_m")
+    assert "static const sail_calibration cal_m = {" in matrix and ".kind = SAIL_MODEL_MATRIX" in matrix
+    assert ".n_terms = 3," in matrix and "SAIL_REAL(74000.0)" in matrix
+    assert matrix.count("{{SAIL_REAL(") == MAX_TERMS  # the Chebyshev array is padded to SAIL_MAX_TERMS
+    seed = calibration_header(_seed_cal(4), "cal_s")
+    assert ".kind = SAIL_MODEL_SEED" in seed
+    assert ".amplitude_terms = {4, 1}," in seed and ".phase_terms = {2, 1}," in seed
+    for member in ("l2", "l3", "offset", "capacity", "delta_min", "delta_max"):
+        assert f".{member} = " in matrix and f".{member} = " in seed
+
+
+@pytest.mark.parametrize(
+    ("cal", "name", "message"),
+    [
+        (_matrix_cal(MAX_TERMS + 1), "sail_cal", "order 9"),
+        (_seed_cal(MAX_TERMS + 1), "sail_cal", "order 9"),
+        (_matrix_cal(1), "2cal", "not a C identifier"),
+        (_matrix_cal(1), "cal-x", "not a C identifier"),
+    ],
+)
+def test_export_refuses_what_libsail_cannot_hold(cal, name, message):
+    with pytest.raises(ExportError, match=message):
+        calibration_header(cal, name)
+
+
+def test_export_cli_errors(tmp_path):
+    runner = CliRunner()
+    missing = runner.invoke(cli, ["export-c", str(tmp_path / "none.json")])
+    assert missing.exit_code == 1 and "no such calibration file" in missing.output
+    _matrix_cal(2).save(tmp_path / "cal.json")
+    no_rate = runner.invoke(cli, ["export-c", str(tmp_path / "cal.json"), "--lowpass-hz", "5"])
+    assert no_rate.exit_code == 2 and "--sample-rate-hz" in no_rate.output
+    bad_name = runner.invoke(cli, ["export-c", str(tmp_path / "cal.json"), "--name", "a b", "-o", str(tmp_path / "x.h")])
+    assert bad_name.exit_code == 1 and "not a C identifier" in bad_name.output and not (tmp_path / "x.h").exists()
+
+
+@pytest.fixture(scope="module")
+def stream_example(tmp_path_factory):
+    """The host example sail_stream, built in double with the default calibration."""
+    if not (shutil.which("cmake") and (shutil.which("cc") or shutil.which("gcc"))):
+        pytest.skip("cmake and a C compiler are needed to build libsail")
+    build = tmp_path_factory.mktemp("libsail")
+    subprocess.run(["cmake", "-S", str(ROOT / "c"), "-B", str(build), "-DSAIL_DOUBLE=ON", "-DSAIL_BUILD_TESTS=OFF"],
+                   check=True, capture_output=True)  # fmt: skip
+    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
+    return build / "examples" / "sail_stream"
+
+
+def test_stream_example_matches_sail_estimate(stream_example):
+    """Line for line, the C example and `sail estimate -` give the same statuses and forces (double build)."""
+    cal = Calibration.load(ROOT / "c" / "examples" / "calibration.json")
+    rng = np.random.default_rng(3)
+    lines = ["time_s,theta1_deg,theta2_deg,load1,load2"]
+    for i in range(200):
+        theta2 = rng.uniform(-40, 40)
+        loads = np.asarray(cal.offsets) + rng.uniform(-0.8, 0.8, 2) * np.asarray(cal.capacity)
+        lines.append(f"{i * 0.0125:.4f},{theta2 + rng.uniform(3, 177):.4f},{theta2:.4f},{loads[0]:.0f},{loads[1]:.0f}")
+    lines += ["9.1,1,0,5,5", "9.2,90,0,1e12,0", "9.3,nan,0,1,1", "9.4,90,x,1,1", "9.5,90,0", "9.6,90,0,inf,1"]
+    text = "\n".join(lines) + "\n"
+    c_out = subprocess.run([str(stream_example)], input=text, capture_output=True, text=True, check=True).stdout
+    py_out = io.StringIO()
+    estimate_lines(cal, iter(text.splitlines(keepends=True)), py_out)
+    c_rows = [r.split(",") for r in c_out.splitlines()]
+    py_rows = [r.split(",") for r in py_out.getvalue().splitlines()]
+    assert len(c_rows) == len(py_rows) == len(lines)
+    assert c_rows[0] == py_rows[0]
+    statuses = {r[-1] for r in py_rows[1:]}
+    assert statuses == set(STATUS_NAMES)
+    for c_row, py_row in zip(c_rows[1:], py_rows[1:]):
+        assert c_row[:-5] == py_row[:-5] and c_row[-1] == py_row[-1]
+        for c_field, py_field in zip(c_row[-5:-1], py_row[-5:-1]):
+            assert (c_field == "") == (py_field == "")
+            if c_field:
+                assert float(c_field) == pytest.approx(float(py_field), rel=1e-8, abs=1e-9)
