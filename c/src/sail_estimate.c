@@ -63,7 +63,8 @@ static int sensing_matrix(const sail_calibration *cal, sail_real delta, sail_rea
         for (i = 0; i < 2; i++) {  /* row i = R(-P_i) j_i / A_i */
             const sail_real a = polyval(cal->amplitude[i], cal->amplitude_terms[i], delta_deg);
             const sail_real p = polyval(cal->phase_deg[i], cal->phase_terms[i], delta_deg) * SAIL_RAD_PER_DEG;
-            const sail_real cp = SAIL_COS(p), sp = SAIL_SIN(p);
+            sail_real cp, sp;
+            sail_sincos(p, &sp, &cp);
             m[i][0] = (cp * jt[i][0] + sp * jt[i][1]) / a;
             m[i][1] = (cp * jt[i][1] - sp * jt[i][0]) / a;
         }
@@ -86,10 +87,8 @@ int sail_estimate(const sail_calibration *cal, const sail_reading *in, sail_forc
     int status = SAIL_OK;
     if (!sail_finite4(in))
         return finish(out, SAIL_NAN, SAIL_NAN, SAIL_INVALID);
-    s1 = SAIL_SIN(in->theta1);
-    c1 = SAIL_COS(in->theta1);
-    s2 = SAIL_SIN(in->theta2);
-    c2 = SAIL_COS(in->theta2);
+    sail_sincos(in->theta1, &s1, &c1);
+    sail_sincos(in->theta2, &s2, &c2);
     /* det J = -l2 l3 sin(delta) (seed Eq. 9): the parallelogram collapses as sin(delta) -> 0 */
     if (SAIL_FABS(s1 * c2 - c1 * s2) < (sail_real)SAIL_SINGULAR_SIN_DELTA)
         return finish(out, SAIL_NAN, SAIL_NAN, SAIL_SINGULAR);

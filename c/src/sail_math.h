@@ -22,6 +22,54 @@
 
 #define SAIL_NAN ((sail_real)NAN)
 
+#if defined(SAIL_DOUBLE) || defined(SAIL_LIBM_TRIG)
+static inline void sail_sincos(sail_real x, sail_real *s, sail_real *c)
+{
+    *s = SAIL_SIN(x);
+    *c = SAIL_COS(x);
+}
+#else
+/*
+ * sin and cos in float without libm's large-argument reduction, which alone
+ * costs 3.3 KB of Cortex-M flash (newlib's __kernel_rem_pio2f and its
+ * 2/pi table): a measured need (issue 6: 4 KiB for sail_estimate).
+ *
+ * x = k pi/2 + r with |r| <= pi/4, by Cody and Waite's three-part pi/2
+ * (P1 and P2 have few significant bits, so k P1 and k P2 are exact for
+ * |k| < 2^12, |x| < ~6400 rad: any joint angle); then the minimax
+ * polynomials of Cephes' sinf/cosf on [-pi/4, pi/4] (Moshier, "Methods and
+ * Programs for Mathematical Functions", 1989), within 2 ulp.  Beyond
+ * 2^16 rad, where a float angle is coarser than a radian anyway, x is first
+ * folded by 2 pi in float.
+ */
+#define SAIL_PIO2_1 1.5703125f                   /* pi/2 = P1 + P2 + P3 */
+#define SAIL_PIO2_2 4.837512969970703125e-4f
+#define SAIL_PIO2_3 7.54978995489188216e-8f
+#define SAIL_2_OVER_PI 0.636619772367581343f
+#define SAIL_TWO_PI 6.28318530717958648f
+#define SAIL_TRIG_FOLD 65536.0f
+
+static inline void sail_sincos(float x, float *s, float *c)
+{
+    float k, r, z, sr, cr;
+    int q;
+    if (x > SAIL_TRIG_FOLD || x < -SAIL_TRIG_FOLD)
+        x -= SAIL_TWO_PI * (float)(long)(x / SAIL_TWO_PI);
+    k = (float)(long)(x * SAIL_2_OVER_PI + (x < 0 ? -0.5f : 0.5f));  /* nearest integer */
+    r = ((x - k * SAIL_PIO2_1) - k * SAIL_PIO2_2) - k * SAIL_PIO2_3;
+    z = r * r;
+    sr = r + r * z * (-1.6666654611e-1f + z * (8.3321608736e-3f + z * -1.9515295891e-4f));
+    cr = 1.0f - 0.5f * z + z * z * (4.166664568298827e-2f + z * (-1.388731625493765e-3f + z * 2.443315711809948e-5f));
+    q = (int)((long)k & 3);
+    switch (q) {
+    case 0: *s = sr; *c = cr; break;
+    case 1: *s = cr; *c = -sr; break;
+    case 2: *s = -sr; *c = -cr; break;
+    default: *s = -cr; *c = sr; break;
+    }
+}
+#endif
+
 static inline int sail_finite4(const sail_reading *r)
 {
     return isfinite(r->theta1) && isfinite(r->theta2) && isfinite(r->load1) && isfinite(r->load2);

@@ -9,6 +9,7 @@
 
 #include "check.h"
 #include "sail.h"
+#include "sail_math.h"
 
 static const double PI = 3.14159265358979323846;
 static const double G1 = 74000.0, G2 = 52800.0;  /* raw units (counts) per N m */
@@ -217,8 +218,28 @@ static void test_lowpass_first_order(void)
     CHECK(r[3].load1 == 4 && r[4].load1 == (sail_real)4.5 && r[4].load2 == -2, "step response %g %g", (double)r[3].load1, (double)r[4].load1);
 }
 
+static void test_sincos(void)
+{
+    /* Float builds use their own sin/cos (sail_math.h): within 2 ulp of 1 on joint angles; sane far out. */
+    double worst = 0, x;
+    sail_real s, c;
+    for (x = -50; x <= 50; x += 1e-3) {
+        const sail_real xr = (sail_real)x;
+        sail_sincos(xr, &s, &c);
+        if (fabs(s - sin((double)xr)) > worst)
+            worst = fabs(s - sin((double)xr));
+        if (fabs(c - cos((double)xr)) > worst)
+            worst = fabs(c - cos((double)xr));
+    }
+    CHECK(worst <= 2.5e-7, "sin/cos error %.3g on |x| <= 50", worst);
+    sail_sincos((sail_real)1e7, &s, &c);
+    CHECK(fabs(s * s + c * c - 1) < 1e-5, "far out: s^2 + c^2 = %g", (double)(s * s + c * c));
+    printf("sail_sincos: max error %.3g on |x| <= 50\n", worst);
+}
+
 int main(void)
 {
+    test_sincos();
     test_square_pose();
     test_round_trip_over_workspace();
     test_statuses_and_precedence();

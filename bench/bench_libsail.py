@@ -1,0 +1,80 @@
+"""libsail: instructions per sail_estimate call under callgrind (x86-64, -O2) and native calls per second.
+
+Both model kinds, float and double.  The matrix model is the default
+calibration (c/examples/sail_calibration.h); the seed model comes from
+c/tests/make_vectors.py's synthetic session.  Instructions are counted
+inside sail_estimate and its callees only (callgrind --toggle-collect).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+C = ROOT / "c"
+TARGET_INSTRUCTIONS = 300
+CALLGRIND_CALLS = 10_000
+NATIVE_CALLS = 20_000_000
+
+
+def _bench_header(header: Path, destination: Path) -> None:
+    name = re.search(r"static const sail_calibration (\w+) =", header.read_text()).group(1)
+    destination.write_text(f'#include "{header}"\n#define BENCH_CAL {name}\n')
+
+
+def _build(tmp: Path, header: Path, double: bool) -> Path:
+    _bench_header(header, tmp / "bench_cal.h")
+    exe = tmp / f"bench_{header.stem}_{'double' if double else 'float'}"
+    command = ["gcc", "-std=c99", "-O2", *(["-DSAIL_DOUBLE"] if double else []), f"-I{C / 'include'}", f"-I{tmp}",
+               *map(str, sorted((C / "src").glob("*.c"))), str(C / "bench" / "bench_estimate.c"), "-lm", "-o", str(exe)]  # fmt: skip
+    subprocess.run(command, check=True, capture_output=True)
+    return exe
+
+
+def _instructions_per_call(exe: Path, tmp: Path) -> float:
+    out = tmp / "callgrind.out"
+    run = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", "--toggle-collect=sail_estimate",
+                          str(exe), str(CALLGRIND_CALLS)], check=True, capture_output=True, text=True)  # fmt: skip
+    collected = int(re.search(r"Collected : (\d+)", run.stderr).group(1))
+    return collected / CALLGRIND_CALLS
+
+
+def _calls_per_second(exe: Path) -> float:
+    out = subprocess.run([str(exe), str(NATIVE_CALLS)], check=True, capture_output=True, text=True).stdout
+    return float(re.search(r"s: (\S+) calls/s", out).group(1))
+
+
+def run() -> list[tuple[str, str]]:
+    if not shutil.which("gcc"):
+        return [("libsail", "gcc not found: skipped")]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        sys.path.insert(0, str(C / "tests"))
+        import make_vectors
+
+        with contextlib.redirect_stdout(io.StringIO()):
+            make_vectors.main(tmp / "vectors")
+        headers = {"matrix (default calibration)": C / "examples" / "sail_calibration.h", "seed": tmp / "vectors" / "cal_seed.h"}
+        for label, header in headers.items():
+            for double in (False, True):
+                exe = _build(tmp, header, double)
+                real = "double" if double else "float"
+                native = _calls_per_second(exe)
+                if shutil.which("valgrind"):
+                    ir = _instructions_per_call(exe, tmp)
+                    verdict = ""
+                    if header == headers["matrix (default calibration)"] and not double:  # the issue's target: default build
+                        verdict = f"   (target <= {TARGET_INSTRUCTIONS}: {'met' if ir <= TARGET_INSTRUCTIONS else 'NOT met'})"
+                    rows.append((f"sail_estimate, {label}, {real}: instructions/call", f"{ir:10.0f}{verdict}"))
+                else:
+                    rows.append((f"sail_estimate, {label}, {real}: instructions/call", "valgrind not installed"))
+                rows.append((f"sail_estimate, {label}, {real}: native", f"{native / 1e6:10.1f} M calls/s"))
+    return rows
