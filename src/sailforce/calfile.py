@@ -75,13 +75,15 @@ class Calibration:
     def kind(self) -> str:
         return "matrix" if isinstance(self.model, MatrixCompensator) else "seed"
 
-    def estimate(self, theta1, theta2, load1, load2):
+    def estimate(self, theta1, theta2, load1, load2, *, threads: int | None = None):
         """``(fx, fy, status)`` [N] for readings: angles [rad], raw loads; vectorized.
 
         Status codes are :mod:`sailforce.estimator`'s; fx and fy are NaN for
-        invalid and singular readings.
+        invalid and singular readings.  Large inputs run on ``threads``
+        threads (default :data:`sailforce.estimator.THREADS`).
         """
-        return estimate(self.model, self.offsets, self.capacity, self.delta_range, theta1, theta2, load1, load2)
+        return estimate(self.model, self.offsets, self.capacity, self.delta_range, theta1, theta2, load1, load2,
+                        threads=threads)  # fmt: skip
 
     def with_offsets(self, offsets) -> "Calibration":
         """A copy with new tare offsets (raw)."""

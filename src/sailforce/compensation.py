@@ -56,10 +56,16 @@ class CompensationError(SailError):
     """Data that cannot determine a compensator."""
 
 
+#: The four entries (m00, m01, m10, m11) of a batch of 2x2 matrices, each of the batch shape.
+Entries = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
 class SensingModel(Protocol):
     """Anything that gives the sensing matrix M (``(..., 2, 2)``) at a pose [rad]."""
 
     def sensing_matrix(self, theta1, theta2) -> np.ndarray: ...
+
+    def sensing_entries(self, delta: np.ndarray, jt: Entries) -> Entries: ...
 
 
 def rotation(angle) -> np.ndarray:
@@ -71,6 +77,19 @@ def rotation(angle) -> np.ndarray:
 def torque_rows(arm: Links, theta1, theta2) -> np.ndarray:
     """J^T, shape ``(..., 2, 2)``: row i maps F to the predicted torque T_i (seed Eqs. 3 and 7)."""
     return np.swapaxes(jacobian(arm, theta1, theta2), -1, -2)
+
+
+def torque_entries(arm: Links, sin1, cos1, sin2, cos2) -> Entries:
+    """J^T as entries from the joint angles' sines and cosines: rows l3 (-sin th1, cos th1), l2 (-sin th2, cos th2) (seed Eq. 4)."""
+    return (-arm.l3 * sin1, arm.l3 * cos1, -arm.l2 * sin2, arm.l2 * cos2)
+
+
+def _matrix_from(model, theta1, theta2) -> np.ndarray:
+    """``(..., 2, 2)`` sensing matrices from a model's :meth:`sensing_entries`."""
+    theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
+    jt = torque_entries(model.arm, np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2))
+    m00, m01, m10, m11 = model.sensing_entries(theta1 - theta2, jt)
+    return np.stack([np.stack([m00, m01], axis=-1), np.stack([m10, m11], axis=-1)], axis=-2)
 
 
 def sinusoid_rows(phi, force: float, signal) -> np.ndarray:
@@ -113,8 +132,13 @@ class TorqueScale:
     arm: Links
     scale: tuple[float, float]  #: k_i, torque [N m] per signal unit
 
+    def sensing_entries(self, delta, jt: Entries) -> Entries:
+        """M's entries from delta [rad] and J^T's entries: row i of J^T over k_i."""
+        k1, k2 = self.scale
+        return (jt[0] / k1, jt[1] / k1, jt[2] / k2, jt[3] / k2)
+
     def sensing_matrix(self, theta1, theta2) -> np.ndarray:
-        return torque_rows(self.arm, theta1, theta2) / np.asarray(self.scale)[:, None]
+        return _matrix_from(self, theta1, theta2)
 
 
 @dataclass(frozen=True)
@@ -138,10 +162,20 @@ class AmplitudePhaseCompensator:
         phase = np.radians(np.stack([fit(delta_deg) for fit in self.phase_deg], axis=-1))
         return amplitude, phase
 
+    def sensing_entries(self, delta, jt: Entries) -> Entries:
+        """M's entries: row i = R(-P_i) j_i / A_i, j_i row i of J^T (see the module docstring)."""
+        delta_deg = np.degrees(delta)
+        rows = []
+        for i in range(2):
+            a = self.amplitude[i](delta_deg)
+            p = np.radians(self.phase_deg[i](delta_deg))
+            cos_p, sin_p = np.cos(p), np.sin(p)
+            jx, jy = jt[2 * i], jt[2 * i + 1]
+            rows += [(cos_p * jx + sin_p * jy) / a, (cos_p * jy - sin_p * jx) / a]
+        return tuple(rows)
+
     def sensing_matrix(self, theta1, theta2) -> np.ndarray:
-        theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
-        amplitude, phase = self.parameters(theta1 - theta2)
-        return rows_from_amplitude_phase(torque_rows(self.arm, theta1, theta2), amplitude, phase)
+        return _matrix_from(self, theta1, theta2)
 
 
 @dataclass(frozen=True)
@@ -177,9 +211,16 @@ class MatrixCompensator:
         x = _chebyshev_argument(np.asarray(delta, dtype=float), self.delta_range)
         return np.moveaxis(np.polynomial.chebyshev.chebval(x, self.coefficients, tensor=True), (0, 1), (-2, -1))
 
+    def sensing_entries(self, delta, jt: Entries) -> Entries:
+        """M's entries: C(delta) times J^T, with C from the Chebyshev basis times the coefficients (one BLAS product)."""
+        x = _chebyshev_argument(np.asarray(delta, dtype=float), self.delta_range)
+        basis = np.polynomial.chebyshev.chebvander(x, self.order).reshape(x.shape + (self.order + 1,))  # (..., K)
+        c = basis @ self.coefficients.reshape(self.order + 1, 4)  # (..., 4): C00 C01 C10 C11
+        c00, c01, c10, c11 = (c[..., k] for k in range(4))
+        return (c00 * jt[0] + c01 * jt[2], c00 * jt[1] + c01 * jt[3], c10 * jt[0] + c11 * jt[2], c10 * jt[1] + c11 * jt[3])
+
     def sensing_matrix(self, theta1, theta2) -> np.ndarray:
-        theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
-        return self.correction(theta1 - theta2) @ torque_rows(self.arm, theta1, theta2)
+        return _matrix_from(self, theta1, theta2)
 
 
 def _chebyshev_argument(delta: np.ndarray, delta_range: tuple[float, float]) -> np.ndarray:

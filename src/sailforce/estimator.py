@@ -18,9 +18,12 @@ EXTRAPOLATED wins.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
-from .compensation import solve_sensing
+from .compensation import torque_entries
 from .statics import SINGULAR_SIN_DELTA
 
 OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID = range(5)
@@ -30,28 +33,65 @@ STATUS_NAMES = ("ok", "singular", "saturated", "extrapolated", "invalid")
 #: counts as extrapolated: 0.01 deg, below encoder resolution of a held pose.
 DELTA_RANGE_SLACK = np.radians(0.01)
 
+#: Readings per block: the ~20 temporaries of a block (8 bytes each) stay in
+#: the L2 cache; measured 14 M/s against 12 M/s for blocks of 65536 (one thread).
+BLOCK = 16384
 
-def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2):
+#: Threads for large inputs; numpy's ufuncs release the GIL, so blocks run in parallel.
+THREADS = min(4, os.cpu_count() or 1)
+
+
+def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2, *, threads: int | None = None):
     """Vectorized estimate: ``(fx, fy, status)`` for arrays of readings (angles [rad], raw loads).
 
-    ``model`` is a sensing model (``sensing_matrix``), ``offsets`` and
-    ``capacity`` are ``(2,)`` raw units, ``delta_range`` [rad].  Inputs
-    broadcast; nothing raises on bad readings: they get their status.
+    ``model`` is a sensing model (``sensing_entries``, ``arm``), ``offsets``
+    and ``capacity`` are ``(2,)`` raw units, ``delta_range`` [rad].  Inputs
+    broadcast; nothing raises on bad readings: they get their status.  The
+    work is split into blocks of :data:`BLOCK` readings, on ``threads``
+    (default :data:`THREADS`) threads when there are several blocks; the
+    result does not depend on it.
     """
-    theta1, theta2, load1, load2 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (theta1, theta2, load1, load2)))
+    threads = THREADS if threads is None else threads
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (theta1, theta2, load1, load2)))
+    shape = arrays[0].shape
+    flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
+    n = flat[0].size
+    fx, fy, status = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
+
+    def run(start: int) -> None:
+        stop = min(start + BLOCK, n)
+        fx[start:stop], fy[start:stop], status[start:stop] = _estimate_block(
+            model, offsets, capacity, delta_range, *(a[start:stop] for a in flat))
+
+    starts = range(0, n, BLOCK)
+    if len(starts) > 1 and threads > 1:
+        with ThreadPoolExecutor(threads) as pool:
+            list(pool.map(run, starts))
+    else:
+        for start in starts:
+            run(start)
+    return fx.reshape(shape), fy.reshape(shape), status.reshape(shape)
+
+
+def _estimate_block(model, offsets, capacity, delta_range, theta1, theta2, load1, load2):
     invalid = ~(np.isfinite(theta1) & np.isfinite(theta2) & np.isfinite(load1) & np.isfinite(load2))
     if invalid.any():  # keep NaN out of the arithmetic; these rows are masked below
         theta1, theta2, load1, load2 = (np.where(invalid, 0.0, a) for a in (theta1, theta2, load1, load2))
+    sin1, cos1, sin2, cos2 = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
     delta = theta1 - theta2
-    singular = np.abs(np.sin(delta)) < SINGULAR_SIN_DELTA
+    singular = np.abs(sin1 * cos2 - cos1 * sin2) < SINGULAR_SIN_DELTA  # sin(delta); det J = -l2 l3 sin(delta) (seed Eq. 9)
+    m00, m01, m10, m11 = model.sensing_entries(delta, torque_entries(model.arm, sin1, cos1, sin2, cos2))
     s1, s2 = load1 - offsets[0], load2 - offsets[1]
     saturated = (np.abs(s1) > capacity[0]) | (np.abs(s2) > capacity[1])
     extrapolated = (delta < delta_range[0] - DELTA_RANGE_SLACK) | (delta > delta_range[1] + DELTA_RANGE_SLACK)
 
-    fx, fy = solve_sensing(model.sensing_matrix(theta1, theta2), s1, s2, invalid | singular)
-    singular = singular | (np.isnan(fx) & ~invalid)  # a degenerate fitted map cannot be inverted either
+    det = m00 * m11 - m01 * m10  # Cramer's rule (cf. seed Eq. 8)
+    det[invalid | singular | (det == 0.0)] = np.nan
+    fx = (m11 * s1 - m01 * s2) / det
+    fy = (m00 * s2 - m10 * s1) / det
+    singular |= np.isnan(fx) & ~invalid  # a degenerate fitted map cannot be inverted either
 
-    status = np.full(fx.shape, OK, dtype=np.int8)
+    status = np.zeros(fx.shape, dtype=np.int8)
     status[extrapolated] = EXTRAPOLATED
     status[saturated] = SATURATED
     status[singular] = SINGULAR

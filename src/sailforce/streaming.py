@@ -53,7 +53,7 @@ def _loads(values: dict[str, np.ndarray], malformed: np.ndarray, lowpass: LowPas
 def _estimate(cal: Calibration, values: dict[str, np.ndarray], malformed: np.ndarray,
               loads: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
-    fx, fy, status = cal.estimate(theta1, theta2, loads[:, 0], loads[:, 1])
+    fx, fy, status = cal.estimate(theta1, theta2, loads[:, 0], loads[:, 1], threads=1)  # chunks already run in parallel
     status[malformed] = INVALID
     fx[malformed] = np.nan
     fy[malformed] = np.nan

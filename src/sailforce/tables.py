@@ -34,9 +34,9 @@ from .io import TableError
 READING_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2")
 REFERENCE_COLUMNS = ("fx_N", "fy_N")
 
-#: Bytes of CSV parsed per chunk: ~100k rows of a typical file, a few tens of
+#: Bytes of CSV parsed per chunk: ~50k rows of a typical file, a few tens of
 #: MB of working memory whatever the file size.
-CHUNK_BYTES = 4 << 20
+CHUNK_BYTES = 2 << 20
 
 
 @dataclass(frozen=True)
