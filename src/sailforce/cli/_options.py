@@ -56,3 +56,22 @@ def spec(name: str):
             raise click.BadParameter(str(exc)) from None
 
     return callback
+
+
+def lowpass_options(func):
+    """``--lowpass-hz``, ``--sample-rate-hz``, ``--lowpass-order``: a Butterworth low-pass on the loads."""
+    func = click.option("--lowpass-order", type=click.IntRange(1, 8), default=2, show_default=True, help="Butterworth order.")(func)
+    func = click.option("--sample-rate-hz", type=float, default=None, help="Sample rate of the readings [Hz].")(func)
+    return click.option("--lowpass-hz", type=float, default=None,
+                        help="Butterworth low-pass cutoff on the loads [Hz]; needs --sample-rate-hz.")(func)  # fmt: skip
+
+
+def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: int):
+    """The :class:`sailforce.filters.LowPass` the options ask for, or None."""
+    if lowpass_hz is None:
+        return None
+    if sample_rate_hz is None:
+        raise click.BadParameter("needs --sample-rate-hz", param_hint="--lowpass-hz")
+    from ..filters import LowPass
+
+    return LowPass(lowpass_hz, sample_rate_hz, order)

@@ -10,9 +10,9 @@ from rich.console import Console
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from ..calfile import Calibration
-from ..filters import LowPass
 from ..streaming import estimate_lines, stream_estimate
 from . import cli
+from ._options import lowpass_options, make_lowpass
 
 
 @cli.command("estimate")
@@ -22,9 +22,7 @@ from . import cli
               help="CSV or .parquet to write; '-' or absent with a live stream: stdout.")
 @click.option("--serial", "serial_port", default=None, metavar="PORT", help="Read the live stream from a serial port (pyserial URL or device).")
 @click.option("--baud", type=int, default=115200, show_default=True, help="Serial baud rate.")
-@click.option("--lowpass-hz", type=float, default=None, help="Butterworth low-pass cutoff on the loads [Hz]; needs --sample-rate-hz.")
-@click.option("--sample-rate-hz", type=float, default=None, help="Sample rate of the readings [Hz].")
-@click.option("--lowpass-order", type=click.IntRange(1, 8), default=2, show_default=True, help="Butterworth order.")
+@lowpass_options
 def estimate_command(cal_path, source, output, serial_port, baud, lowpass_hz, sample_rate_hz, lowpass_order):
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
@@ -36,11 +34,7 @@ def estimate_command(cal_path, source, output, serial_port, baud, lowpass_hz, sa
     """
     console = Console(stderr=True)
     cal = Calibration.load(cal_path)
-    lowpass = None
-    if lowpass_hz is not None:
-        if sample_rate_hz is None:
-            raise click.BadParameter("needs --sample-rate-hz", param_hint="--lowpass-hz")
-        lowpass = LowPass(lowpass_hz, sample_rate_hz, lowpass_order)
+    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order)
     live = serial_port is not None or str(source) == "-"
     if source is None and serial_port is None:
         raise click.UsageError("give IN.csv, '-' for stdin, or --serial PORT")

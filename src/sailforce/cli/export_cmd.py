@@ -10,9 +10,9 @@ from rich.console import Console
 
 from ..calfile import Calibration
 from ..export_c import calibration_header
-from ..filters import LowPass
 from ..io import atomic_writer
 from . import cli
+from ._options import lowpass_options, make_lowpass
 
 
 @cli.command("export-c")
@@ -20,9 +20,7 @@ from . import cli
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=Path("sail_calibration.h"),
               show_default=True, help="Header to write ('-' for stdout).")  # fmt: skip
 @click.option("--name", default="sail_cal", show_default=True, help="C name of the sail_calibration constant.")
-@click.option("--lowpass-hz", type=float, default=None, help="Also export a Butterworth low-pass (NAME_lowpass) with this cutoff [Hz].")
-@click.option("--sample-rate-hz", type=float, default=None, help="Sample rate of the readings [Hz], for --lowpass-hz.")
-@click.option("--lowpass-order", type=click.IntRange(1, 8), default=2, show_default=True, help="Butterworth order.")
+@lowpass_options
 def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowpass_order):
     """Write CAL.json as `static const sail_calibration NAME = {...};` for libsail (c/include/sail.h).
 
@@ -32,11 +30,7 @@ def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowp
     for sail_lowpass_init.
     """
     cal = Calibration.load(calibration)
-    lowpass = None
-    if lowpass_hz is not None:
-        if sample_rate_hz is None:
-            raise click.BadParameter("needs --sample-rate-hz", param_hint="--lowpass-hz")
-        lowpass = LowPass(lowpass_hz, sample_rate_hz, lowpass_order)
+    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order)
     text = calibration_header(cal, name, source=calibration.name, lowpass=lowpass)
     if str(output) == "-":
         sys.stdout.write(text)
