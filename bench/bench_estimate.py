@@ -47,17 +47,20 @@ def _pandas_baseline(cal: Calibration, source: Path, destination: Path) -> None:
 def _child_peak_mb(command: list[str]) -> tuple[float, float]:
     """Wall time [s] and peak RSS [MB] of ``command``, a Python script run by this interpreter.
 
-    The peak is read inside the child after exec (RUSAGE_SELF), so that the
-    image of this large parent process, which a fork briefly shares, does not count.
+    The peak is the child's own VmHWM (/proc/self/status), read at its exit:
+    Linux carries ru_maxrss across exec, so a child forked from this large
+    process would otherwise report the parent's size.
     """
-    wrapper = ("import resource, runpy, sys\n"
+    wrapper = ("import runpy, sys\n"
                "sys.argv = sys.argv[1:]\n"
                "try:\n    runpy.run_path(sys.argv[0], run_name='__main__')\n"
-               "finally:\n    print('MAXRSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n")  # fmt: skip
+               "finally:\n"
+               "    hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].split()[1]\n"
+               "    print('PEAK_KB', hwm, file=sys.stderr)\n")  # fmt: skip
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", wrapper, *command], check=True, capture_output=True, text=True)
     elapsed = time.perf_counter() - start
-    peak_kb = int(done.stderr.rsplit("MAXRSS_KB", 1)[1].split()[0])
+    peak_kb = int(done.stderr.rsplit("PEAK_KB", 1)[1].split()[0])
     return elapsed, peak_kb / 1024.0
 
 
