@@ -228,13 +228,15 @@ def _chebyshev_argument(delta: np.ndarray, delta_range: tuple[float, float]) -> 
     return (2.0 * delta - (low + high)) / (high - low)
 
 
-def solve_sensing(m: np.ndarray, load1, load2, skip) -> tuple[np.ndarray, np.ndarray]:
-    """Solve M F = s for F by Cramer's rule (cf. seed Eq. 8 for M = J^T); NaN where ``skip`` or det M = 0."""
-    det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
+def solve_sensing(m: Entries, load1, load2, skip) -> tuple[np.ndarray, np.ndarray]:
+    """Solve M F = s for F by Cramer's rule (cf. seed Eq. 8 for M = J^T); NaN where ``skip`` or det M = 0.
+
+    ``m`` is M's entries ``(m00, m01, m10, m11)``, as :meth:`SensingModel.sensing_entries` gives them.
+    """
+    m00, m01, m10, m11 = m
+    det = m00 * m11 - m01 * m10
     det = np.where(skip | (det == 0.0), np.nan, det)
-    fx = (m[..., 1, 1] * load1 - m[..., 0, 1] * load2) / det
-    fy = (m[..., 0, 0] * load2 - m[..., 1, 0] * load1) / det
-    return fx, fy
+    return (m11 * load1 - m01 * load2) / det, (m00 * load2 - m10 * load1) / det
 
 
 def estimate_force(
@@ -264,7 +266,8 @@ def estimate_force(
     singular = np.abs(np.sin(theta1 - theta2)) < min_sin_delta
     if on_singular == "raise" and singular.any():
         raise_singular_pose(theta1, theta2, singular, min_sin_delta)
-    fx, fy = solve_sensing(model.sensing_matrix(theta1, theta2), load1, load2, singular)
+    jt = torque_entries(model.arm, np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2))
+    fx, fy = solve_sensing(model.sensing_entries(theta1 - theta2, jt), load1, load2, singular)
     if on_singular == "raise":
         return fx, fy
     if on_singular != "mask":

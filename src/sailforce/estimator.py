@@ -23,7 +23,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .compensation import torque_entries
+from .compensation import solve_sensing, torque_entries
 from .statics import SINGULAR_SIN_DELTA
 
 OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID = range(5)
@@ -80,15 +80,12 @@ def _estimate_block(model, offsets, capacity, delta_range, theta1, theta2, load1
     sin1, cos1, sin2, cos2 = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
     delta = theta1 - theta2
     singular = np.abs(sin1 * cos2 - cos1 * sin2) < SINGULAR_SIN_DELTA  # sin(delta); det J = -l2 l3 sin(delta) (seed Eq. 9)
-    m00, m01, m10, m11 = model.sensing_entries(delta, torque_entries(model.arm, sin1, cos1, sin2, cos2))
+    m = model.sensing_entries(delta, torque_entries(model.arm, sin1, cos1, sin2, cos2))
     s1, s2 = load1 - offsets[0], load2 - offsets[1]
     saturated = (np.abs(s1) > capacity[0]) | (np.abs(s2) > capacity[1])
     extrapolated = (delta < delta_range[0] - DELTA_RANGE_SLACK) | (delta > delta_range[1] + DELTA_RANGE_SLACK)
 
-    det = m00 * m11 - m01 * m10  # Cramer's rule (cf. seed Eq. 8)
-    det[invalid | singular | (det == 0.0)] = np.nan
-    fx = (m11 * s1 - m01 * s2) / det
-    fy = (m00 * s2 - m10 * s1) / det
+    fx, fy = solve_sensing(m, s1, s2, invalid | singular)
     singular |= np.isnan(fx) & ~invalid  # a degenerate fitted map cannot be inverted either
 
     status = np.zeros(fx.shape, dtype=np.int8)
