@@ -129,13 +129,13 @@ def test_stream_example_matches_sail_estimate(stream_example):
         theta2 = rng.uniform(-40, 40)
         loads = np.asarray(cal.offsets) + rng.uniform(-0.8, 0.8, 2) * np.asarray(cal.capacity)
         lines.append(f"{i * 0.0125:.4f},{theta2 + rng.uniform(3, 177):.4f},{theta2:.4f},{loads[0]:.0f},{loads[1]:.0f}")
-    lines += ["9.1,1,0,5,5", "9.2,90,0,1e12,0", "9.3,nan,0,1,1", "9.4,90,x,1,1", "9.5,90,0", "9.6,90,0,inf,1"]
+    lines += ["9.1,1,0,5,5", "9.2,90,0,1e12,0", "9.3,nan,0,1,1", "9.4,90,x,1,1", "9.5,90,0", "", "9.6,90,0,inf,1"]
     text = "\n".join(lines) + "\n"
     c_out = subprocess.run([str(stream_example)], input=text, capture_output=True, text=True, check=True).stdout
-    py_out = io.StringIO()
-    estimate_lines(cal, iter(text.splitlines(keepends=True)), py_out)
+    py_out = io.BytesIO()
+    estimate_lines(cal, iter(text.encode().splitlines(keepends=True)), lambda: py_out)
     c_rows = [r.split(",") for r in c_out.splitlines()]
-    py_rows = [r.split(",") for r in py_out.getvalue().splitlines()]
+    py_rows = [r.split(",") for r in py_out.getvalue().decode().splitlines()]
     assert len(c_rows) == len(py_rows) == len(lines)
     assert c_rows[0] == py_rows[0]
     statuses = {r[-1] for r in py_rows[1:]}

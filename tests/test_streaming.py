@@ -183,7 +183,7 @@ def test_live_serial_through_pty(files):
 
     tty.setraw(slave)
     port = serial.Serial(os.ttyname(slave), timeout=2)
-    out = io.StringIO()
+    out = io.BytesIO()
     seen = []
 
     def lines():
@@ -191,11 +191,11 @@ def test_live_serial_through_pty(files):
             raw = port.readline()
             if not raw:
                 return
-            seen.append(out.getvalue().count("\n"))
-            yield raw.decode()
+            seen.append(out.getvalue().count(b"\n"))
+            yield raw
 
     os.write(master, b"theta1_deg,theta2_deg,load1,load2\n")
-    worker = threading.Thread(target=lambda: estimate_lines(cal, lines(), out))
+    worker = threading.Thread(target=lambda: estimate_lines(cal, lines(), lambda: out))
     worker.start()
     for k in range(3):
         os.write(master, f"80,10,{offsets[0]:.0f},{offsets[1]:.0f}\n".encode())
@@ -203,7 +203,7 @@ def test_live_serial_through_pty(files):
     port.close()
     os.close(master)
     os.close(slave)
-    rows = list(csv.DictReader(io.StringIO(out.getvalue())))
+    rows = list(csv.DictReader(io.StringIO(out.getvalue().decode())))
     assert [r["status"] for r in rows] == ["ok"] * 3
     # Output lines already written as each input line arrives: none at the header, then the header
     # and every earlier estimate, so nothing waits for a buffer to fill.

@@ -6,8 +6,10 @@
  * Input: a header line naming the columns (theta1_deg, theta2_deg, load1 and
  * load2 are needed; any others pass through), then one reading per line.
  * Output: each input line followed by fx_N, fy_N, force_N, angle_deg and
- * status, flushed per line, as `sail estimate -` writes it.  A field that is
- * missing or not a number makes the row invalid.  The calibration is the one
+ * status, flushed per line, as `sail estimate -` writes it: every line is a
+ * row (a blank one too), and a row with too few fields gets empty ones
+ * appended so that its columns stay in place.  A field that is missing or
+ * not a number makes the row invalid.  The calibration is the one
  * compiled in (sail_calibration.h, from `sail export-c`).
  */
 #include <math.h>
@@ -89,8 +91,6 @@ int main(void)
         sail_force f;
         int n;
         line[strcspn(line, "\r\n")] = '\0';
-        if (line[0] == '\0')
-            continue;
         strcpy(copy, line);
         n = split(copy, fields);
         for (i = 0; i < 4; i++)
@@ -102,6 +102,8 @@ int main(void)
         sail_estimate(&sail_cal, &r, &f);
         counts[f.status]++;
         fputs(line, stdout);
+        for (i = n; i < n_columns; i++)
+            putchar(',');
         print_number(f.fx);
         print_number(f.fy);
         print_number(hypot(f.fx, f.fy));

@@ -19,6 +19,11 @@ from .errors import GeometryError
 #: must not.
 PARALLELOGRAM_RTOL = 1e-9
 
+#: Link lengths outside this range [m] are refused: far beyond any planar
+#: robot, and products of such lengths (l2 l3 sin delta, second moments of
+#: area) overflow or underflow float64 in the statics and the FE.
+LINK_LENGTH_RANGE = (1e-4, 100.0)
+
 
 @dataclass(frozen=True)
 class Arm:
@@ -52,6 +57,9 @@ class Arm:
                 raise GeometryError(f"{name}: expected a length in metres, got {value!r}")
             if not math.isfinite(value) or value <= 0.0:
                 raise GeometryError(f"{name} = {value!r} m: link lengths must be positive and finite")
+            low, high = LINK_LENGTH_RANGE
+            if not low <= value <= high:
+                raise GeometryError(f"{name} = {value:g} m: link lengths must lie between {low:g} m and {high:g} m")
             object.__setattr__(self, name, float(value))
         if not math.isclose(self.l4, self.l2, rel_tol=PARALLELOGRAM_RTOL):
             raise GeometryError(

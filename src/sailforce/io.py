@@ -6,7 +6,7 @@ import csv
 import json
 import math
 import os
-import tempfile
+import secrets
 from contextlib import contextmanager
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
@@ -21,25 +21,93 @@ class TableError(SailError):
     """A table that cannot be read: missing, empty, ragged, a bad header or cell, missing columns, corrupt Parquet."""
 
 
+#: Table formats a command may write, by file extension.
+CSV_SUFFIXES = (".csv",)
+PARQUET_SUFFIXES = (".parquet", ".pq")
+
+
+class OutputPathError(SailError):
+    """An output path that would overwrite an input, or that names no format sailforce writes."""
+
+
 @contextmanager
-def atomic_writer(path: str | Path, mode: str = "w") -> Iterator[IO]:
-    """Write to a temporary file beside ``path`` and rename it into place on success."""
-    path = Path(path)
-    handle, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or ".")
+def atomic_writer(path: str | Path, mode: str = "w", *, keep_on_interrupt: bool = False) -> Iterator[IO]:
+    """Write to a temporary file beside ``path`` and rename it into place on success.
+
+    A symlink at ``path`` stays a symlink: its target is replaced.  The data
+    reach the disk (fsync) before the rename, and the file gets the mode
+    ``open()`` would give it.  On any error the temporary file is removed and
+    ``path`` is untouched; with ``keep_on_interrupt`` (live recordings) an
+    interrupt (Ctrl-C, SIGTERM) still puts into place what was written, if
+    anything was.
+    """
+    target = Path(os.path.realpath(path))
+    tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
     try:
-        with os.fdopen(handle, mode, encoding=None if "b" in mode else "utf-8", newline="" if "b" not in mode else None) as stream:
-            yield stream
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; give the file the mode open() would
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        handle = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies, as for open()
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
+    committed = False
+    try:
+        binary = "b" in mode
+        with os.fdopen(handle, mode, encoding=None if binary else "utf-8", newline=None if binary else "") as stream:
+            try:
+                yield stream
+            except KeyboardInterrupt:
+                if keep_on_interrupt and stream.tell() > 0:
+                    _commit(stream, tmp, target)
+                    committed = True
+                raise
+            _commit(stream, tmp, target)
+            committed = True
+    except OSError as exc:
+        if exc.filename and str(exc.filename) == str(tmp):  # never show the temporary name
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
         raise
+    finally:
+        if not committed:
+            tmp.unlink(missing_ok=True)
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+def _commit(stream: IO, tmp: Path, target: Path) -> None:
+    stream.flush()
+    os.fsync(stream.fileno())
+    os.replace(tmp, target)
+
+
+def check_output(output: str | Path | None, inputs: dict[str, str | Path | None], flag: str = "-o") -> None:
+    """Refuse an output that is one of the ``inputs`` (by resolved path or by inode, so links count).
+
+    ``inputs`` maps a description ("the input table", "--calibration") to a
+    path; None entries and ``-`` (stdin/stdout) are skipped.
+    """
+    if output is None or str(output) == "-":
+        return
+    for what, path in inputs.items():
+        if path is not None and str(path) != "-" and _same_file(Path(output), Path(path)):
+            raise OutputPathError(f"{flag} {output}: that is {what} ({path}); writing it would destroy it. Choose another name")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet)
+        return False
+
+
+def table_format(output: str | Path, flag: str = "-o", *, parquet: bool = True) -> str:
+    """``"csv"`` or ``"parquet"`` from an output's extension; refuses any other (and Parquet where not written)."""
+    suffix = Path(output).suffix.lower()
+    if suffix in CSV_SUFFIXES:
+        return "csv"
+    if suffix in PARQUET_SUFFIXES:
+        if not parquet:
+            raise OutputPathError(f"{flag} {output}: this output is written line by line as CSV; name it .csv")
+        return "parquet"
+    known = ", ".join(CSV_SUFFIXES + (PARQUET_SUFFIXES if parquet else ()))
+    raise OutputPathError(f"{flag} {output}: unknown table format {suffix or '(no extension)'!r}; use one of {known}")
 
 
 def write_json(path: str | Path, data: object) -> None:
@@ -66,7 +134,7 @@ def read_numeric_csv(path: str | Path, *, min_columns: int = 1) -> tuple[list[st
     """
     path = Path(path)
     try:
-        with open(path, newline="", encoding="utf-8") as stream:
+        with open(path, newline="", encoding="utf-8-sig") as stream:  # a byte-order mark is not a column name
             rows = [(n, row) for n, row in enumerate(csv.reader(stream), start=1) if any(c.strip() for c in row)]
     except UnicodeDecodeError as exc:
         raise TableError(f"{path}: not a UTF-8 text table (byte {exc.start} cannot be decoded)") from None

@@ -139,12 +139,15 @@ def load_robot_file(path: str | Path) -> RobotFile:
     """Parse and validate a robot file; every problem names the file and the key."""
     path = Path(path)
     try:
-        with path.open("rb") as handle:
-            data = tomllib.load(handle)
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise RobotFileError(f"{path}: no such file; `sail robot init {path}` writes a template") from None
     except OSError as exc:
         raise RobotFileError(f"{path}: cannot read ({exc.strerror})") from None
+    try:
+        data = tomllib.loads(raw.removeprefix(b"\xef\xbb\xbf").decode("utf-8"))  # editors may add a byte-order mark
+    except UnicodeDecodeError as exc:
+        raise RobotFileError(f"{path}: not a text file (byte {exc.start} is not UTF-8); expected a TOML robot file") from None
     except tomllib.TOMLDecodeError as exc:
         raise RobotFileError(f"{path}: not valid TOML: {exc}") from None
     unknown = sorted(set(data) - set(KNOWN_SECTIONS))

@@ -1,21 +1,28 @@
 """Estimating force over files of any size, and over a live line stream.
 
-Output columns: the input's, untouched, then ``fx_N, fy_N, force_N,
-angle_deg, status``.  Every input row gives exactly one output row, in
-order; rows without an estimate (invalid, singular) have empty force fields.
+Output columns: the input's, then ``fx_N, fy_N, force_N, angle_deg,
+status``.  Every input row gives exactly one output row, in order; rows
+without an estimate (invalid, singular) have empty force fields.
+
+CSV output copies each input line byte for byte and appends the five
+fields, so ``status`` is always a row's last field, even on a malformed
+line.  File mode and stream mode share :func:`csv_rows`: the same bytes in
+give the same bytes out.  Parquet output holds typed columns: the needed
+ones as float64 (null where the text was not a number), and every other CSV
+column as int64 or float64 when its first chunk's values are all numbers,
+else as text.
 """
 
 from __future__ import annotations
 
-import csv
-import math
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Callable, IO, Iterable
+from typing import IO, Callable, Iterable, Iterator
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
@@ -23,11 +30,12 @@ from .calfile import Calibration
 from .estimator import INVALID, STATUS_NAMES
 from .filters import LowPass
 from .io import atomic_writer
-from .tables import READING_COLUMNS, Chunk, TableError, is_parquet, read_chunks
+from .tables import (READING_COLUMNS, Chunk, Header, TableError, csv_chunks, csv_header, is_parquet, read_chunks,
+                     read_header)
 
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
-_STATUS_TEXT = pa.array(STATUS_NAMES)
-
+_STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
+_OUTPUT_HEADER = ("," + ",".join(OUTPUT_COLUMNS) + "\n").encode()
 
 #: Chunks in flight at once: estimating and formatting one chunk (numpy and
 #: Arrow release the GIL) overlaps with parsing the next and writing the last.
@@ -62,23 +70,108 @@ def _estimate(cal: Calibration, values: dict[str, np.ndarray], malformed: np.nda
     return {"fx_N": fx, "fy_N": fy, "force_N": force, "angle_deg": angle}, status
 
 
+def csv_rows(lines: pa.Array, columns: dict[str, np.ndarray], status: np.ndarray) -> bytes:
+    """Each input line, then ``,fx,fy,force,angle,status``; numbers in shortest round-trip form, NaN empty."""
+    if len(lines) == 0:
+        return b""
+    parts = [lines]
+    for values in columns.values():
+        text = pc.cast(pa.array(values, mask=np.isnan(values)), pa.string())
+        parts.append(pc.fill_null(text, "").cast(pa.binary()))
+    parts.append(_STATUS_TEXT.take(pa.array(status.astype(np.int32))))
+    rows = pc.binary_join_element_wise(*parts, b",")
+    whole = pc.binary_join(pa.ListArray.from_arrays(pa.array([0, len(rows)], pa.int32()), rows), b"\n")
+    return whole[0].as_py() + b"\n"
+
+
 def _output_table(table: pa.Table, columns: dict[str, np.ndarray], status: np.ndarray) -> pa.Table:
     for name, values in columns.items():
         table = table.append_column(name, pa.array(values, mask=np.isnan(values)))
-    return table.append_column("status", _STATUS_TEXT.take(pa.array(status.astype(np.int32))))
+    return table.append_column("status", pa.array(STATUS_NAMES).take(pa.array(status.astype(np.int32))))
 
 
-def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, csv_header: bool | None):
-    """One chunk's output (an Arrow table, or its CSV bytes when ``csv_header`` is not None) and status counts."""
+class _ParquetTypes:
+    """The Parquet types of a CSV table's text columns, chosen on its first chunk and held for the rest."""
+
+    def __init__(self) -> None:
+        self.types: dict[str, pa.DataType] | None = None
+
+    def convert(self, chunk: Chunk) -> pa.Table:
+        table = chunk.table
+        if self.types is None:
+            self.types = {n: pa.float64() if n in chunk.values else _numeric_type(table.column(n)) for n in table.column_names}
+        columns = {}
+        for name, kind in self.types.items():
+            if name in chunk.values:
+                values = chunk.values[name]
+                columns[name] = pa.array(values, mask=np.isnan(values))
+            elif kind == pa.string():
+                columns[name] = table.column(name)
+            else:
+                columns[name] = self._cast(chunk, name, kind)
+        return pa.table(columns)
+
+    @staticmethod
+    def _cast(chunk: Chunk, name: str, kind: pa.DataType) -> pa.ChunkedArray:
+        column = _empty_to_null(chunk.table.column(name))
+        try:
+            return pc.cast(column, kind)
+        except pa.ArrowInvalid:
+            bad = next(i for i, v in enumerate(column.to_pylist()) if v is not None and _cast_fails(v, kind))
+            raise TableError(
+                f"line {chunk.first_line + bad}, column {name!r}: {column[bad].as_py()!r} is not a number, but the "
+                f"column's first rows were, so its Parquet column is {kind}; write CSV output instead"
+            ) from None
+
+
+def _empty_to_null(column: pa.ChunkedArray) -> pa.ChunkedArray:
+    return pc.if_else(pc.equal(pc.utf8_trim_whitespace(column), ""), pa.scalar(None, pa.string()), column)
+
+
+def _numeric_type(column: pa.ChunkedArray) -> pa.DataType:
+    """int64 or float64 if every non-empty text of ``column`` is such a number, else string."""
+    column = _empty_to_null(column)
+    for kind in (pa.int64(), pa.float64()):
+        try:
+            pc.cast(column, kind)
+            return kind
+        except pa.ArrowInvalid:
+            continue
+    return pa.string()
+
+
+def _cast_fails(value: str, kind: pa.DataType) -> bool:
+    try:
+        pc.cast(pa.array([value]), kind)
+        return False
+    except pa.ArrowInvalid:
+        return True
+
+
+def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _ParquetTypes | None):
+    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet) and its status counts."""
     columns, status = _estimate(cal, chunk.values, chunk.malformed, loads)
     counts = np.bincount(status, minlength=len(STATUS_NAMES))
-    table = _output_table(chunk.table, columns, status)
-    if csv_header is None:
-        return table, counts
+    if parquet is not None:
+        table = parquet.convert(chunk) if chunk.lines is not None else chunk.table
+        return _output_table(table, columns, status), counts
+    if chunk.lines is not None:
+        return csv_rows(chunk.lines, columns, status), counts
+    sink = pa.BufferOutputStream()  # Parquet in, CSV out: Arrow's writer formats the typed columns
+    pacsv.write_csv(_output_table(chunk.table, columns, status), sink, pacsv.WriteOptions(include_header=False))
+    return sink.getvalue().to_pybytes(), counts
+
+
+def _csv_output_header(source: Path, header: Header | None) -> bytes:
+    if header is not None:
+        return header.line + _OUTPUT_HEADER
+    schema = pq.read_schema(source)
+    nested = [f"{f.name!r} ({f.type})" for f in schema if pa.types.is_nested(f.type)]
+    if nested:
+        raise TableError(f"{source}: column(s) {', '.join(nested)} cannot be written as CSV; write Parquet output instead")
     sink = pa.BufferOutputStream()
-    style = "needed" if chunk.quoted else "none"  # "none" keeps pass-through fields byte-identical
-    pacsv.write_csv(table, sink, pacsv.WriteOptions(include_header=csv_header, quoting_style=style))
-    return sink.getvalue(), counts
+    pacsv.write_csv(schema.empty_table(), sink)
+    return sink.getvalue().to_pybytes().rstrip(b"\n") + _OUTPUT_HEADER
 
 
 def stream_estimate(
@@ -87,82 +180,81 @@ def stream_estimate(
     destination: str | Path,
     *,
     lowpass: LowPass | None = None,
-    on_chunk: Callable[[int], None] | None = None,
+    on_chunk: Callable[[int, int], None] | None = None,
 ) -> dict[str, int]:
     """Estimate every row of ``source`` into ``destination`` (CSV or Parquet by extension), in constant memory.
 
     The output file appears only when complete (atomic write).  ``on_chunk``
-    receives the number of rows written, for progress.  Chunks are estimated
+    receives, for progress, the number of rows written and the part of the
+    input they came from (:func:`sailforce.tables.input_size`'s unit).  Chunks are estimated
     on :data:`WORKERS` threads and written in order.  Returns the count of
     rows per status.
     """
     source, destination = Path(source), Path(destination)
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
-    parquet_out = is_parquet(destination)
+    parquet = _ParquetTypes() if is_parquet(destination) else None
+    header = csv_header(source, READING_COLUMNS)
     writer = None
 
-    def write(job: tuple[Future, int]) -> None:
+    def write(job: tuple[Future, Chunk]) -> None:
         nonlocal writer, counts
         output, chunk_counts = job[0].result()
-        if parquet_out:
+        if parquet is not None:
             writer = writer or pq.ParquetWriter(stream, output.schema)
             writer.write_table(output)
         else:
             stream.write(output)
         counts += chunk_counts
         if on_chunk:
-            on_chunk(job[1])
+            on_chunk(job[1].num_rows, job[1].input_size)
 
     with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
-        pending: deque[tuple[Future, int]] = deque()
-        first = True
+        if parquet is None:
+            stream.write(_csv_output_header(source, header))
+        pending: deque[tuple[Future, Chunk]] = deque()
         for chunk in read_chunks(source, READING_COLUMNS):
             loads = _loads(chunk.values, chunk.malformed, lowpass)
-            header = None if parquet_out else first
-            pending.append((pool.submit(_chunk_output, cal, chunk, loads, header), chunk.table.num_rows))
-            first = False
+            pending.append((pool.submit(_chunk_output, cal, chunk, loads, parquet), chunk))
             while len(pending) >= WORKERS:
                 write(pending.popleft())
         while pending:
             write(pending.popleft())
         if writer is not None:
             writer.close()
-        if first:
+        if not counts.sum():
             raise TableError(f"{source}: no data rows below the header")
     return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}
 
 
-def estimate_lines(cal: Calibration, lines: Iterable[str], out: IO[str], *, lowpass: LowPass | None = None) -> dict[str, int]:
-    """Live stream: a header line, then one reading per line; each estimate is written and flushed at once."""
-    counts = dict.fromkeys(STATUS_NAMES, 0)
+def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], IO[bytes]], *,
+                   lowpass: LowPass | None = None, source: str = "the stream") -> dict[str, int]:  # fmt: skip
+    """Live stream: a header line, then one reading per line; each estimate is written and flushed at once.
+
+    ``lines`` are raw lines (bytes, line end included).  ``open_output`` is
+    called once the header is read and checked, so that nothing is opened,
+    let alone truncated, for a stream that is not a table of readings.  The
+    rows are those :func:`stream_estimate` writes for the same bytes.
+    """
+    counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
     lines = iter(lines)
-    header_line = next(lines, None)
-    if header_line is None:
-        raise TableError("the stream ended before its header line")
-    names = [n.strip() for n in next(csv.reader([header_line]))]
-    missing = [n for n in READING_COLUMNS if n not in names]
-    if missing:
-        raise TableError(f"stream header lacks column(s) {', '.join(missing)}: got {', '.join(names)}")
-    index = {n: names.index(n) for n in READING_COLUMNS}
-    out.write(",".join(names + list(OUTPUT_COLUMNS)) + "\n")
+    first = next(lines, b"")
+    if not first:
+        raise TableError(f"{source} ended before its header line")
+    header = read_header(source, first, READING_COLUMNS)
+    out = open_output()
+    out.write(header.line + _OUTPUT_HEADER)
     out.flush()
-    for line in lines:
-        if not line.strip():
-            continue
-        fields = next(csv.reader([line.rstrip("\r\n")]))
-        malformed = np.array([len(fields) != len(names)])
-        values = {n: np.array([_number(fields, i)]) for n, i in index.items()}
-        columns, status = estimate_columns(cal, values, malformed, lowpass)
-        name = STATUS_NAMES[int(status[0])]
-        counts[name] += 1
-        numbers = ["" if math.isnan(columns[c][0]) else f"{columns[c][0]:.9g}" for c in OUTPUT_COLUMNS[:-1]]
-        out.write(line.rstrip("\r\n") + "," + ",".join(numbers + [name]) + "\n")
+    for chunk in csv_chunks(source, header, READING_COLUMNS, _whole_lines(lines), fast=False):
+        output, chunk_counts = _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, lowpass), None)
+        out.write(output)
         out.flush()
-    return counts
+        counts += chunk_counts
+    if not counts.sum():
+        raise TableError(f"{source}: no data rows below the header")
+    return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}
 
 
-def _number(fields: list[str], i: int) -> float:
-    try:
-        return float(fields[i])
-    except (IndexError, ValueError):
-        return math.nan
+def _whole_lines(lines: Iterator[bytes]) -> Iterator[bytes]:
+    """Each line as a block of its own, ending with ``\\n`` (the last line of a stream may lack one)."""
+    for line in lines:
+        yield line if line.endswith(b"\n") else line + b"\n"

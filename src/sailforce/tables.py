@@ -2,26 +2,38 @@
 
 A table has a header row naming its columns; sailforce needs some of them
 (``theta1_deg, theta2_deg, load1, load2``, and ``fx_N, fy_N`` to calibrate)
-and passes every other column through untouched: CSV fields are read as
-text and written back as the same text.
+and passes every other column through untouched.
 
-Bad rows are never dropped.  A field that is empty, not a number, or a row
-with too few or too many fields gives NaN in the numeric columns, and the
-row is flagged in :attr:`Chunk.malformed`; callers mark such rows
-``invalid``.  A short row keeps the fields it has; a long row keeps the
-first ones (the extras are reported in the count of malformed rows).
-Newlines inside quoted fields are not supported (the file is split at
-line ends to stream it).
+**One line, one row.**  In a CSV file every physical line after the header
+is one row, whatever it holds, so a file read in chunks and the same bytes
+read line by line from a stream give the same rows (`docs/guarantees.md`):
+
+- a line ends at ``\\n``; one ``\\r`` before it belongs to the line end;
+  the last line needs no line end; a UTF-8 byte-order mark before the
+  header is dropped;
+- fields are split at commas; a line that holds a ``"`` is read with CSV
+  quoting (:mod:`csv`), but a quote never continues a row onto the next
+  line, so newlines inside quoted fields are not supported;
+- a row whose field count differs from the header's, a blank line, a line
+  that cannot be split (a stray ``\\r`` inside quotes, a quoted field over
+  :func:`csv.field_size_limit`) and a line longer than
+  :data:`MAX_LINE_BYTES` are **malformed**: their numbers are NaN and the
+  caller marks them ``invalid``.  A line longer than :data:`MAX_LINE_BYTES`
+  is not copied (its pass-through text is empty);
+- a needed field that is empty or not a number is NaN.
+
+:attr:`Chunk.lines` keeps each row's line (without its line end) for
+byte-faithful CSV pass-through; a row with too few fields (a blank line
+too) gets empty fields appended there, so its columns stay in place.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Iterator
+from typing import BinaryIO, Iterable, Iterator
 
 import numpy as np
 import pyarrow as pa
@@ -38,23 +50,49 @@ REFERENCE_COLUMNS = ("fx_N", "fy_N")
 #: MB of working memory whatever the file size.
 CHUNK_BYTES = 2 << 20
 
+#: A line longer than this is malformed and not copied: a reading is under
+#: 200 bytes, and reading on would let one corrupt line exhaust memory.
+MAX_LINE_BYTES = 1 << 20
+
+#: The spellings of a number that Arrow's string-to-float64 cast reads
+#: (checked in tests/test_tables.py), matched case-insensitively.
+_NUMBER = r"^[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:e[+-]?[0-9]+)?|inf|infinity|nan)$"
+
+_BOM = b"\xef\xbb\xbf"
+
+#: What an over-long line is read as, in files and streams alike: too long, so malformed and not copied.
+_OVERLONG = b"\0" * (MAX_LINE_BYTES + 1) + b"\n"
+
 
 @dataclass(frozen=True)
 class Chunk:
     """Consecutive rows: the original columns, the needed ones as float64, and malformed-row flags."""
 
-    table: pa.Table  #: every column as read (CSV: text), for pass-through
+    table: pa.Table  #: every column as read (CSV: text, padded or cut to the header's width), for pass-through
     values: dict[str, np.ndarray]  #: needed column -> float64, NaN where missing or not a number
-    malformed: np.ndarray  #: bool, rows with the wrong number of fields
+    malformed: np.ndarray  #: bool, rows that are not a well-formed line of the header's width
     first_line: int  #: file line of the first row (1 is the header), for messages
-    quoted: bool = True  #: some text field may need quoting when written back as CSV
+    lines: pa.Array | None = None  #: CSV only: each row's input line (binary, without its line end)
+    input_size: int = 0  #: how much of the input the chunk covers, in :func:`input_size`'s unit
+
+    @property
+    def num_rows(self) -> int:
+        return self.malformed.size
+
+
+@dataclass(frozen=True)
+class Header:
+    """A CSV header line: the column names and the line itself (for the output's header)."""
+
+    names: list[str]
+    line: bytes  #: without byte-order mark and line end
 
 
 def is_parquet(path: Path) -> bool:
     return path.suffix.lower() in (".parquet", ".pq")
 
 
-def read_chunks(path: str | Path, needed: tuple[str, ...], chunk_bytes: int = CHUNK_BYTES) -> Iterator[Chunk]:
+def read_chunks(path: str | Path, needed: tuple[str, ...], chunk_bytes: int | None = None) -> Iterator[Chunk]:
     """Yield the table at ``path`` chunk by chunk (CSV or Parquet by extension)."""
     path = Path(path)
     if not path.is_file():
@@ -62,7 +100,27 @@ def read_chunks(path: str | Path, needed: tuple[str, ...], chunk_bytes: int = CH
     if is_parquet(path):
         yield from _parquet_chunks(path, needed)
     else:
-        yield from _csv_chunks(path, needed, chunk_bytes)
+        with open(path, "rb") as stream:
+            header = read_header(path, stream.readline(MAX_LINE_BYTES + 1), needed)
+            yield from csv_chunks(path, header, needed, _line_blocks(stream, chunk_bytes or CHUNK_BYTES))
+
+
+def input_size(path: str | Path) -> int:
+    """The size of a table for progress: bytes of a CSV file, rows of a Parquet file."""
+    path = Path(path)
+    try:
+        return pq.ParquetFile(path).metadata.num_rows if is_parquet(path) else path.stat().st_size
+    except (pa.ArrowInvalid, OSError):  # reading it will say what is wrong
+        return 0
+
+
+def csv_header(path: str | Path, needed: tuple[str, ...]) -> Header | None:
+    """The header of the CSV file at ``path`` (None for Parquet), checked for the needed columns."""
+    path = Path(path)
+    if is_parquet(path):
+        return None
+    with open(path, "rb") as stream:
+        return read_header(path, stream.readline(MAX_LINE_BYTES + 1), needed)
 
 
 def read_all(path: str | Path, needed: tuple[str, ...]) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
@@ -73,118 +131,190 @@ def read_all(path: str | Path, needed: tuple[str, ...]) -> tuple[dict[str, np.nd
         for n in needed:
             values[n].append(chunk.values[n])
         malformed.append(chunk.malformed)
-        lines.append(chunk.first_line + np.arange(chunk.malformed.size))
+        lines.append(chunk.first_line + np.arange(chunk.num_rows))
     if not malformed:
         raise TableError(f"{path}: no data rows below the header")
     return ({n: np.concatenate(v) for n, v in values.items()}, np.concatenate(malformed), np.concatenate(lines))
 
 
-def _check_columns(path: Path, names: list[str], needed: tuple[str, ...]) -> None:
+def read_header(source: object, raw: bytes, needed: tuple[str, ...]) -> Header:
+    """Parse and check a header line (bytes as read, line end included); ``source`` names it in messages."""
+    if not raw.strip():
+        raise TableError(f"{source}: empty; expected a header line naming the columns, then one reading per line")
+    if len(raw) > MAX_LINE_BYTES:
+        raise TableError(f"{source}: the header line is longer than {MAX_LINE_BYTES} bytes; is this a CSV table?")
+    line = _strip_line_end(raw.removeprefix(_BOM))
+    try:
+        text = line.decode("utf-8")
+    except UnicodeDecodeError:
+        raise TableError(f"{source}: the header is not UTF-8 text; is this a CSV file?") from None
+    fields, ok = _split(text)
+    if not ok:
+        raise TableError(f"{source}: the header line cannot be read as CSV")
+    names = [n.strip() for n in fields]
+    check_columns(source, names, needed)
+    return Header(names, line)
+
+
+def check_columns(source: object, names: list[str], needed: tuple[str, ...]) -> None:
     missing = [n for n in needed if n not in names]
     if missing:
-        raise TableError(f"{path}: missing column(s) {', '.join(missing)}; the header has {', '.join(names) or 'nothing'}")
+        raise TableError(f"{source}: missing column(s) {', '.join(missing)}; the header has {', '.join(names) or 'nothing'}")
     duplicated = {n for n in names if names.count(n) > 1}
     if duplicated:
-        raise TableError(f"{path}: duplicated column(s) {', '.join(sorted(duplicated))} in the header")
+        raise TableError(f"{source}: duplicated column(s) {', '.join(sorted(duplicated))} in the header")
 
 
-def _csv_chunks(path: Path, needed: tuple[str, ...], chunk_bytes: int) -> Iterator[Chunk]:
-    with open(path, "rb") as stream:
-        header = stream.readline()
-        try:
-            names = [n.strip() for n in next(csv.reader([header.decode("utf-8-sig")]), [])]
-        except UnicodeDecodeError:
-            raise TableError(f"{path}: the header is not UTF-8 text; is this a CSV file?") from None
-        _check_columns(path, names, needed)
-        line = 2
-        tail = b""
-        while True:
-            block = stream.read(chunk_bytes)
-            data = tail + block
-            if not block:
-                tail = b""
-            else:
-                cut = data.rfind(b"\n") + 1
-                data, tail = data[:cut], data[cut:]
-            if data.strip():
-                chunk = _parse_csv(path, data, names, needed, line)
-                line += data.count(b"\n")
-                yield chunk
-            if not block:
-                break
+def csv_chunks(source: object, header: Header, needed: tuple[str, ...], blocks: Iterable[bytes], *,
+               fast: bool = True) -> Iterator[Chunk]:  # fmt: skip
+    """Chunks from blocks of whole lines (each block ends with ``\\n``); lines are numbered from 2.
+
+    ``fast=False`` skips the Arrow parser, cheaper for blocks of one line;
+    the rows are the same either way.
+    """
+    line = 2
+    for block in blocks:
+        chunk = parse_lines(block, header.names, needed, line) if fast else _parse_slowly(block, header.names, needed, line)
+        line += chunk.num_rows
+        yield replace(chunk, input_size=len(block))
 
 
-def _parse_csv(path: Path, data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk:
-    bad_rows = []
+def _line_blocks(stream: BinaryIO, chunk_bytes: int) -> Iterator[bytes]:
+    """Blocks of whole lines, each ending with ``\\n``; a line over :data:`MAX_LINE_BYTES` becomes :data:`_OVERLONG`."""
+    tail, skipping = b"", False
+    while block := stream.read(chunk_bytes):
+        if skipping:  # the rest of an over-long line: drop it
+            end = block.find(b"\n")
+            if end < 0:
+                continue
+            block, skipping = block[end + 1 :], False
+        data = tail + block
+        cut = data.rfind(b"\n") + 1
+        data, tail = data[:cut], data[cut:]
+        if len(tail.removesuffix(b"\r")) > MAX_LINE_BYTES:  # the line so far is too long: stop keeping it
+            data, tail, skipping = data + _OVERLONG, b"", True
+        if data:
+            yield data
+    if tail:
+        yield tail + b"\n"
 
-    def on_invalid(row) -> str:
-        bad_rows.append(row)
-        return "skip"
 
+def read_line(stream: BinaryIO) -> bytes:
+    """One line from a live stream (line end included; ``b""`` at its end), cut as :func:`_line_blocks` cuts."""
+    line = stream.readline(MAX_LINE_BYTES + 2)
+    if len(line) == MAX_LINE_BYTES + 2 and not line.endswith(b"\n"):  # over-long whatever follows: drop the rest
+        while (rest := stream.readline(MAX_LINE_BYTES)) and not rest.endswith(b"\n"):
+            pass
+        return _OVERLONG
+    return line
+
+
+def parse_lines(data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk:
+    """Rows from whole lines (``data`` ends with ``\\n``): Arrow's parser where it splits as :func:`_split`, else line by line."""
+    return _parse_fast(data, names, needed, first_line) or _parse_slowly(data, names, needed, first_line)
+
+
+def _parse_fast(data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk | None:
+    """Arrow's CSV parser, for the common chunk with no quote, no stray CR and no over-long line."""
+    if b'"' in data:
+        return None
+    ends = np.flatnonzero(np.frombuffer(data, np.uint8) == 10)
+    carriage_returns = data.count(b"\r")
+    crlf = carriage_returns == ends.size and data.count(b"\r\n") == ends.size
+    if carriage_returns and not crlf:
+        return None
+    offsets = np.concatenate(([0], ends + 1)).astype(np.int32)
+    if np.diff(offsets).max() - 1 > MAX_LINE_BYTES:
+        return None
+    invalid = []
     try:
         table = pacsv.read_csv(
             io.BytesIO(data),
-            read_options=pacsv.ReadOptions(column_names=names),
-            parse_options=pacsv.ParseOptions(invalid_row_handler=on_invalid),
+            read_options=pacsv.ReadOptions(column_names=names, block_size=max(len(data), 1 << 20)),
+            parse_options=pacsv.ParseOptions(quote_char=False, ignore_empty_lines=False,
+                                             invalid_row_handler=lambda row: invalid.append(row) or "skip"),
             convert_options=pacsv.ConvertOptions(column_types={n: pa.string() for n in names}, strings_can_be_null=False),
-        )
+        )  # fmt: skip
     except (pa.ArrowInvalid, UnicodeDecodeError):
-        bad_rows.append(None)
-    if bad_rows:  # rare: keep every row, in order, by parsing this chunk slowly
-        return _parse_csv_slowly(path, data, names, needed, first_line)
-    values = {n: _to_float(table.column(n)) for n in needed}
-    # Unquoted CSV text cannot hold a separator, quote or line end, so it is written back as is.
-    return Chunk(table, values, np.zeros(table.num_rows, dtype=bool), first_line, quoted=b'"' in data)
+        return None
+    if invalid or table.num_rows != ends.size:
+        return None
+    lines = pa.Array.from_buffers(pa.binary(), ends.size, [None, pa.py_buffer(offsets), pa.py_buffer(data)])
+    lines = pc.binary_slice(lines, 0, -2 if crlf else -1)
+    values = {n: to_float(table.column(n)) for n in needed}
+    return Chunk(table, values, np.zeros(table.num_rows, dtype=bool), first_line, lines)
 
 
-def _parse_csv_slowly(path: Path, data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk:
-    text = data.decode("utf-8", errors="replace")
-    rows, malformed = [], []
-    for fields in csv.reader(io.StringIO(text)):
-        if not fields or (len(fields) == 1 and not fields[0].strip()):
-            continue
-        malformed.append(len(fields) != len(names))
-        rows.append((fields + [""] * len(names))[: len(names)])
-    columns = list(zip(*rows)) if rows else [()] * len(names)
+def _parse_slowly(data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk:
+    """Line by line, each line one row whatever it holds."""
+    width = len(names)
+    kept, rows, malformed = [], [], []
+    for raw in data.split(b"\n")[:-1]:
+        line = raw[:-1] if raw.endswith(b"\r") else raw
+        if len(line) > MAX_LINE_BYTES:
+            line, fields, ok = b"", [""], False
+        else:
+            fields, ok = _split(line.decode("utf-8", errors="replace"))
+        if len(fields) < width and (ok or not line):  # a short row: empty fields keep the columns in place
+            line += b"," * (width - len(fields))
+        kept.append(line)
+        malformed.append(not ok or len(fields) != width)
+        rows.append((fields + [""] * width)[:width])
+    columns = list(zip(*rows)) if rows else [()] * width
     table = pa.table({n: pa.array(list(c), type=pa.string()) for n, c in zip(names, columns)})
-    values = {n: _to_float(table.column(n)) for n in needed}
-    return Chunk(table, values, np.array(malformed, dtype=bool), first_line)
+    values = {n: to_float(table.column(n)) for n in needed}
+    return Chunk(table, values, np.array(malformed, dtype=bool), first_line, pa.array(kept, type=pa.binary()))
 
 
-def _to_float(column: pa.ChunkedArray) -> np.ndarray:
-    """Text to float64; NaN for anything that is not a number (the caller flags it invalid)."""
+def _split(text: str) -> tuple[list[str], bool]:
+    """The fields of one line, and whether it could be split at all."""
+    if '"' not in text:
+        return text.split(","), True
+    try:
+        return next(csv.reader([text]), []), True
+    except csv.Error:  # a CR inside quotes, a field over csv.field_size_limit()
+        return [], False
+
+
+def _strip_line_end(line: bytes) -> bytes:
+    line = line.removesuffix(b"\n")
+    return line.removesuffix(b"\r")
+
+
+def to_float(column: pa.ChunkedArray | pa.Array) -> np.ndarray:
+    """Text to float64; NaN for anything that is not a number (the caller flags it invalid).
+
+    A number is what Arrow's cast reads, with blanks around it allowed: the
+    whole column is cast at once, and only a column that fails is sifted
+    value by value through :data:`_NUMBER`, which accepts the same spellings.
+    """
     try:
         return pc.cast(column, pa.float64()).to_numpy(zero_copy_only=False).astype(float, copy=False)
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-        return np.array([_parse_number(v) for v in column.to_pylist()], dtype=float)
-
-
-def _parse_number(value) -> float:
-    if value is None:
-        return math.nan
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return math.nan
+        pass
+    text = pc.utf8_trim(column, " \t")
+    numbers = pc.if_else(pc.match_substring_regex(text, _NUMBER, ignore_case=True), text, pa.scalar(None, pa.string()))
+    return pc.cast(numbers, pa.float64()).to_numpy(zero_copy_only=False).astype(float, copy=False)
 
 
 def _parquet_chunks(path: Path, needed: tuple[str, ...]) -> Iterator[Chunk]:
     try:
         parquet = pq.ParquetFile(path)
-        names = parquet.schema_arrow.names
+        schema = parquet.schema_arrow
     except (pa.ArrowInvalid, OSError) as exc:
         raise TableError(f"{path}: not a readable Parquet file ({exc})") from None
-    _check_columns(path, list(names), needed)
+    check_columns(path, list(schema.names), needed)
+    for name in needed:
+        kind = schema.field(name).type
+        if not (pa.types.is_integer(kind) or pa.types.is_floating(kind) or pa.types.is_string(kind)
+                or pa.types.is_large_string(kind) or pa.types.is_decimal(kind)):  # fmt: skip
+            raise TableError(f"{path}: column {name!r} holds {kind}, not numbers")
     line = 1
     try:
         for batch in parquet.iter_batches(batch_size=1 << 18):
             table = pa.Table.from_batches([batch])
-            values = {}
-            for n in needed:
-                column = table.column(n)
-                values[n] = _to_float(column) if pa.types.is_string(column.type) else (
-                    pc.cast(column, pa.float64()).to_numpy(zero_copy_only=False).astype(float))
-            yield Chunk(table, values, np.zeros(table.num_rows, dtype=bool), line)
+            values = {n: to_float(table.column(n)) for n in needed}
+            yield Chunk(table, values, np.zeros(table.num_rows, dtype=bool), line, input_size=table.num_rows)
             line += table.num_rows
     except (pa.ArrowInvalid, OSError) as exc:
         raise TableError(f"{path}: corrupt Parquet data after row {line - 1} ({exc})") from None

@@ -1,12 +1,18 @@
 """The ``sail`` command line.
 
-Errors are one line: exit code 2 for usage errors (click's own), 1 for data
-errors (any :class:`sailforce.SailError` or file-system failure).
+Errors are one line.  Exit codes: 0 done; 1 data errors (any
+:class:`sailforce.SailError`, a file-system failure, too little memory); 2
+usage errors (click's own); 70 an internal error, a bug in sailforce (one
+line too; ``SAIL_TRACEBACK=1`` shows the traceback); 130 interrupted by
+Ctrl-C and 143 by SIGTERM, after removing any half-written output.
 """
 
 from __future__ import annotations
 
 import importlib
+import os
+import signal
+import sys
 
 import click
 
@@ -18,6 +24,20 @@ class DataError(click.ClickException):
     """Bad data rather than bad usage: exit code 1."""
 
     exit_code = 1
+
+
+class InternalError(click.ClickException):
+    """An exception sailforce did not expect: a bug, reported in one line with exit code 70 (EX_SOFTWARE)."""
+
+    exit_code = 70
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that every ``with`` block cleans up; exit code 143."""
+
+
+EXIT_INTERRUPTED = 130  #: 128 + SIGINT, the shell's convention
+EXIT_TERMINATED = 143  #: 128 + SIGTERM
 
 
 #: Command name -> the module that defines it.  Modules load on first use, so
@@ -56,6 +76,19 @@ class SailGroup(click.Group):
         except OSError as exc:
             name = f"{exc.filename}: " if exc.filename else ""
             raise DataError(f"{name}{exc.strerror or exc}") from None
+        except MemoryError:
+            raise DataError("not enough memory for this job; make the grid or the input smaller") from None
+        except KeyboardInterrupt as exc:
+            code = EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
+            click.echo(f"sail: {'terminated' if code == EXIT_TERMINATED else 'interrupted'}", err=True)
+            sys.exit(code)
+        except (click.ClickException, click.exceptions.Exit, click.Abort, SystemExit):
+            raise
+        except Exception as exc:
+            if os.environ.get("SAIL_TRACEBACK"):
+                raise
+            raise InternalError(f"internal error, a bug in sailforce: {type(exc).__name__}: {exc} "
+                                "(SAIL_TRACEBACK=1 shows where; please report it)") from None  # fmt: skip
 
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
@@ -73,5 +106,10 @@ def cli() -> None:
 
 def main() -> None:
     """Console-script entry point."""
+    signal.signal(signal.SIGTERM, _terminate)
     cli(prog_name="sail")
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated()
 

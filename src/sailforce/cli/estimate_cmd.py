@@ -3,73 +3,93 @@
 from __future__ import annotations
 
 import sys
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import click
 from rich.console import Console
-from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from ..calfile import Calibration
+from ..io import atomic_writer, check_output, table_format
 from ..streaming import estimate_lines, stream_estimate
+from ..tables import TableError, input_size, is_parquet, read_line
 from . import cli
 from ._options import lowpass_options, make_lowpass
+from ._progress import progress_bar
 
 
 @cli.command("estimate")
 @click.option("--calibration", "cal_path", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Calibration JSON.")
 @click.argument("source", metavar="IN.csv", required=False, type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=None,
-              help="CSV or .parquet to write; '-' or absent with a live stream: stdout.")
+              help="OUT.csv or OUT.parquet to write; '-' or absent with a live stream: stdout (live output is CSV).")
 @click.option("--serial", "serial_port", default=None, metavar="PORT", help="Read the live stream from a serial port (pyserial URL or device).")
-@click.option("--baud", type=int, default=115200, show_default=True, help="Serial baud rate.")
+@click.option("--baud", type=click.IntRange(1), default=115200, show_default=True, help="Serial baud rate.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
-def estimate_command(cal_path, source, output, serial_port, baud, lowpass_hz, sample_rate_hz, lowpass_order):
+def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass_hz, sample_rate_hz, lowpass_order):
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
-    Output: the input columns untouched, then fx_N, fy_N, force_N, angle_deg
+    Output: each input line as it was, then fx_N, fy_N, force_N, angle_deg
     and status (ok, singular, saturated, extrapolated, invalid), one row per
-    input row, in order.  IN.csv '-' reads a live stream from stdin; --serial
-    reads one from a port; each estimate is then written and flushed as its
-    line arrives.  A summary of the statuses goes to stderr.
+    input line, in order; status is always a row's last field.  IN.csv '-'
+    reads a live stream from stdin; --serial reads one from a port; each
+    estimate is then written and flushed as its line arrives, and Ctrl-C
+    ends the recording, keeping what was written.  A summary of the
+    statuses goes to stderr.
     """
     console = Console(stderr=True)
-    cal = Calibration.load(cal_path)
-    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order)
-    live = serial_port is not None or str(source) == "-"
+    if serial_port is not None and source is not None:
+        raise click.UsageError(f"give either IN.csv ({source}) or --serial {serial_port}, not both")
     if source is None and serial_port is None:
         raise click.UsageError("give IN.csv, '-' for stdin, or --serial PORT")
+    live = serial_port is not None or str(source) == "-"
+    check_output(output, {"the input table": source, "the --calibration file": cal_path})
+    if output is not None and str(output) != "-":
+        table_format(output, parquet=not live)
+    elif not live:
+        raise click.UsageError("a file input needs -o OUT.csv (or OUT.parquet)")
+    cal = Calibration.load(cal_path)
+    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order)
     if live:
         counts = _live(cal, source, output, serial_port, baud, lowpass)
     else:
-        if output is None or str(output) == "-":
-            raise click.UsageError("a file input needs -o OUT.csv (or OUT.parquet)")
-        columns = (SpinnerColumn(), TextColumn("{task.completed:,} rows"), TimeElapsedColumn())
-        with Progress(*columns, console=console, transient=True) as progress:
-            task = progress.add_task("estimating", total=None)
-            counts = stream_estimate(cal, source, output, lowpass=lowpass, on_chunk=lambda n: progress.advance(task, n))
+        unit = "rows" if is_parquet(source) else "bytes"
+        with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
+            counts = stream_estimate(cal, source, output, lowpass=lowpass, on_chunk=lambda rows, size: advance(size))
     total = sum(counts.values())
     summary = ", ".join(f"{name} {n:,}" for name, n in counts.items())
-    console.print(f"{total:,} rows: {summary}" + ("" if live else f"; wrote {output}"))
+    console.print(f"{total:,} rows: {summary}" + ("" if live else f"; wrote {output}"), highlight=False)
 
 
 def _live(cal, source, output, serial_port, baud, lowpass):
-    out = sys.stdout if output is None or str(output) == "-" else open(output, "w", encoding="utf-8")
-    try:
-        if serial_port is not None:
-            import serial
+    """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
+    to_file = output is not None and str(output) != "-"
+    name = f"serial port {serial_port}" if serial_port is not None else "stdin"
+    with (atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer)) as out:
+        with _line_source(serial_port, baud) as lines:
+            return estimate_lines(cal, lines, lambda: out, lowpass=lowpass, source=name)
 
-            with serial.serial_for_url(serial_port, baudrate=baud, timeout=None) as port:
-                return estimate_lines(cal, _serial_lines(port, serial.SerialException), out, lowpass=lowpass)
-        return estimate_lines(cal, sys.stdin, out, lowpass=lowpass)
-    finally:
-        if out is not sys.stdout:
-            out.close()
+
+@contextmanager
+def _line_source(serial_port, baud):
+    """Raw lines from stdin or from a serial port, until it ends (EOF, hang-up, cable pulled)."""
+    if serial_port is None:
+        yield iter(lambda: read_line(sys.stdin.buffer), b"")
+        return
+    import serial
+
+    try:
+        port = serial.serial_for_url(serial_port, baudrate=baud, timeout=None)
+    except (serial.SerialException, ValueError) as exc:
+        raise TableError(f"--serial {serial_port}: cannot open it ({exc})") from None
+    with port:
+        yield _serial_lines(port, serial.SerialException)
 
 
 def _serial_lines(port, closed_error):
-    """Lines from a serial port until it closes (the device hangs up or the cable is pulled)."""
     try:
-        for raw in iter(port.readline, b""):
-            yield raw.decode("utf-8", errors="replace")
+        while line := read_line(port):
+            yield line
     except closed_error:
         return
