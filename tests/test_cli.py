@@ -134,7 +134,7 @@ def test_simulate_writes_rows_and_sidecar(tmp_path):
     rows = _csv(out)
     assert len(rows) == 8 * 24
     assert list(rows[0]) == ["theta1_deg", "theta2_deg", "phi_deg", "fx_N", "fy_N", "load1", "load2", "t1_Nm", "t2_Nm"]
-    sidecar = json.loads(out.with_suffix(".json").read_text())
+    sidecar = json.loads(out.with_name(out.name + ".json").read_text())
     assert sidecar["units"]["load1"] == "mV/V" and sidecar["rows"] == 192 and sidecar["overloaded_rows"] == 0
     # Default robot, pin joints: torques are J^T F, and the bridge reads T_i / l_i.
     arm = Arm()
@@ -151,7 +151,7 @@ def test_simulate_warns_on_overload(tmp_path):
     result = CliRunner().invoke(cli, ["simulate", "--theta1-deg=90", "--theta2-deg=0", "--phi-deg=90", "--force-N=2000", "-o", str(out)])
     assert result.exit_code == 0
     assert "beyond its 490.3 N capacity" in result.output
-    assert json.loads(out.with_suffix(".json").read_text())["overloaded_rows"] == 1
+    assert json.loads(out.with_name(out.name + ".json").read_text())["overloaded_rows"] == 1
 
 
 @pytest.mark.parametrize(

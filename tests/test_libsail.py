@@ -104,7 +104,7 @@ def test_export_cli_errors(tmp_path):
     assert missing.exit_code == 1 and "no such calibration file" in missing.output
     _matrix_cal(2).save(tmp_path / "cal.json")
     no_rate = runner.invoke(cli, ["export-c", str(tmp_path / "cal.json"), "--lowpass-hz", "5"])
-    assert no_rate.exit_code == 2 and "--sample-rate-hz" in no_rate.output
+    assert no_rate.exit_code == 2 and "--sample-rate-Hz" in no_rate.output
     bad_name = runner.invoke(cli, ["export-c", str(tmp_path / "cal.json"), "--name", "a b", "-o", str(tmp_path / "x.h")])
     assert bad_name.exit_code == 1 and "not a C identifier" in bad_name.output and not (tmp_path / "x.h").exists()
 

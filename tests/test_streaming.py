@@ -126,7 +126,7 @@ def test_estimate_with_lowpass_cli(files):
                  "--sample-rate-hz", "100")  # fmt: skip
     assert result.exit_code == 0 and len(_read(d / "f.csv")) == 9
     bad = run("estimate", "--calibration", d / "cal.json", d / "in.csv", "-o", d / "g.csv", "--lowpass-hz", "5")
-    assert bad.exit_code == 2 and "--sample-rate-hz" in bad.output
+    assert bad.exit_code == 2 and "--sample-rate-Hz" in bad.output
 
 
 def test_tare(files):

@@ -49,7 +49,8 @@ from ._validate import as_float_arrays
 from .errors import SailError
 from .kinematics import Links, jacobian
 from .regressors import PolynomialFit
-from .statics import SINGULAR_SIN_DELTA, raise_singular_pose
+from .kinematics import sin_delta_from_trig
+from .statics import SINGULAR_SIN_DELTA, is_singular, raise_singular_pose
 
 
 class CompensationError(SailError):
@@ -263,10 +264,11 @@ def estimate_force(
     (0.0, 10.0)
     """
     theta1, theta2, load1, load2 = as_float_arrays(theta1=theta1, theta2=theta2, load1=load1, load2=load2)
-    singular = np.abs(np.sin(theta1 - theta2)) < min_sin_delta
+    trig = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
+    singular = is_singular(sin_delta_from_trig(*trig), min_sin_delta)
     if on_singular == "raise" and singular.any():
         raise_singular_pose(theta1, theta2, singular, min_sin_delta)
-    jt = torque_entries(model.arm, np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2))
+    jt = torque_entries(model.arm, *trig)
     fx, fy = solve_sensing(model.sensing_entries(theta1 - theta2, jt), load1, load2, singular)
     if on_singular == "raise":
         return fx, fy

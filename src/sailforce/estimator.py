@@ -24,7 +24,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .compensation import solve_sensing, torque_entries
-from .statics import SINGULAR_SIN_DELTA
+from .kinematics import sin_delta_from_trig
+from .statics import is_singular
 
 OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID = range(5)
 STATUS_NAMES = ("ok", "singular", "saturated", "extrapolated", "invalid")
@@ -79,7 +80,7 @@ def _estimate_block(model, offsets, capacity, delta_range, theta1, theta2, load1
         theta1, theta2, load1, load2 = (np.where(invalid, 0.0, a) for a in (theta1, theta2, load1, load2))
     sin1, cos1, sin2, cos2 = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
     delta = theta1 - theta2
-    singular = np.abs(sin1 * cos2 - cos1 * sin2) < SINGULAR_SIN_DELTA  # sin(delta); det J = -l2 l3 sin(delta) (seed Eq. 9)
+    singular = is_singular(sin_delta_from_trig(sin1, cos1, sin2, cos2))  # det J = -l2 l3 sin(delta) (seed Eq. 9)
     m = model.sensing_entries(delta, torque_entries(model.arm, sin1, cos1, sin2, cos2))
     s1, s2 = load1 - offsets[0], load2 - offsets[1]
     saturated = (np.abs(s1) > capacity[0]) | (np.abs(s2) > capacity[1])

@@ -27,6 +27,27 @@ MAX_SECTIONS = 4
 
 _C_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
+#: Keywords of C99, C11 and C23, and the macros of <stdbool.h>: never a variable's name.
+C_KEYWORDS = frozenset("""
+    auto break case char const continue default do double else enum extern float for goto if inline int long
+    register restrict return short signed sizeof static struct switch typedef union unsigned void volatile while
+    _Alignas _Alignof _Atomic _Bool _Complex _Generic _Imaginary _Noreturn _Static_assert _Thread_local
+    alignas alignof bool constexpr false nullptr static_assert thread_local true typeof typeof_unqual
+    _BitInt _Decimal32 _Decimal64 _Decimal128
+""".split())
+
+#: Every name c/include/sail.h declares (tests/test_libsail.py checks this list against the header), and
+#: what <stddef.h>, which it includes, defines.
+LIBSAIL_NAMES = frozenset("""
+    SAIL_DELTA_RANGE_SLACK SAIL_DOUBLE SAIL_EXTRAPOLATED SAIL_H SAIL_INVALID SAIL_MAX_SECTIONS SAIL_MAX_TERMS
+    SAIL_MODEL_MATRIX SAIL_MODEL_SEED SAIL_OK SAIL_REAL SAIL_SATURATED SAIL_SINGULAR SAIL_SINGULAR_SIN_DELTA
+    SAIL_VERSION_MAJOR SAIL_VERSION_MINOR sail_calibration sail_calibration_real_size sail_estimate
+    sail_estimate_block sail_force sail_lowpass sail_lowpass_init sail_lowpass_process sail_lowpass_state
+    sail_model_kind sail_reading sail_real sail_tare_finish sail_tare_init sail_tare_process
+    sail_tare_state
+    NULL offsetof size_t ptrdiff_t wchar_t max_align_t
+""".split())
+
 
 class ExportError(SailError):
     """A calibration or name that libsail cannot hold."""
@@ -53,9 +74,17 @@ def _padded(rows: list, width: int) -> list:
     return [list(r) + [0.0] * (width - len(r)) for r in rows]
 
 
-def _check_name(name: str) -> None:
+def _check_name(name: str, lowpass: bool = False) -> None:
     if not _C_NAME.match(name):
         raise ExportError(f"--name {name!r} is not a C identifier (letters, digits and _, not starting with a digit)")
+    if name in C_KEYWORDS:
+        raise ExportError(f"--name {name!r} is a C keyword; choose another name, such as the default sail_cal")
+    if name.startswith("__") or (name[0] == "_" and name[1:2].isupper()):
+        raise ExportError(f"--name {name!r} is reserved for the C implementation (it starts with __ or _ and a capital)")
+    for declared in (name, f"{name}_lowpass") if lowpass else (name,):
+        if declared in LIBSAIL_NAMES:
+            raise ExportError(f"--name {name!r} would declare {declared}, which libsail's sail.h already declares; "
+                              "choose another name, such as the default sail_cal")  # fmt: skip
 
 
 def calibration_fields(cal: Calibration) -> list[tuple[str, str]]:
@@ -112,7 +141,7 @@ def _initializer(ctype: str, name: str, fields: list[tuple[str, str]]) -> str:
 
 def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str = "", lowpass: LowPass | None = None) -> str:
     """The text of a C header defining ``name`` (and ``name_lowpass`` when a filter is given)."""
-    _check_name(name)
+    _check_name(name, lowpass is not None)
     guard = f"SAIL_CALIBRATION_{name.upper()}_H"
     lo, hi = np.degrees(cal.delta_range)
     lines = [

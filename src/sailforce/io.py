@@ -161,3 +161,24 @@ def read_numeric_csv(path: str | Path, *, min_columns: int = 1) -> tuple[list[st
                 raise TableError(f"{path}, line {line}, column {names[c]!r}: {cell.strip()!r} is not finite")
             table[r, c] = value
     return names, table
+
+
+@contextmanager
+def numeric_table_writer(path: str | Path, columns: tuple[str, ...], *, csv_format: str = "%.12g") -> Iterator:
+    """Yield ``write(values)`` appending rows (a dict of equal-length arrays) to a CSV or Parquet file.
+
+    The format follows the extension (:func:`table_format`); the file is
+    written atomically.  CSV numbers use ``csv_format``; Parquet columns are
+    float64.
+    """
+    if table_format(path) == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        schema = pa.schema([(name, pa.float64()) for name in columns])
+        with atomic_writer(path, "wb") as stream, pq.ParquetWriter(stream, schema) as writer:
+            yield lambda values: writer.write_table(pa.table({n: np.asarray(values[n], float) for n in columns}, schema=schema))
+        return
+    with atomic_writer(path) as stream:
+        stream.write(",".join(columns) + "\n")
+        yield lambda values: np.savetxt(stream, np.column_stack([values[n] for n in columns]), fmt=csv_format, delimiter=",")

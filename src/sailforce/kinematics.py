@@ -99,7 +99,17 @@ def sin_delta(theta1, theta2) -> np.ndarray:
     where this is zero: the parallelogram has collapsed (delta = 0 or pi).
     """
     theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
-    return np.sin(theta1 - theta2)
+    return sin_delta_from_trig(np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2))
+
+
+def sin_delta_from_trig(sin1, cos1, sin2, cos2):
+    """sin(theta1 - theta2) = sin1 cos2 - cos1 sin2, from the sines and cosines every caller already has.
+
+    The one formula for the singularity measure, in Python and in libsail
+    (``sail_estimate.c``), so that a pose at the threshold gets the same
+    verdict everywhere.
+    """
+    return sin1 * cos2 - cos1 * sin2
 
 
 def jacobian_condition(arm: Links, theta1, theta2) -> np.ndarray:

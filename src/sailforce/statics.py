@@ -21,13 +21,27 @@ import numpy as np
 
 from ._validate import as_float_arrays
 from .errors import SingularPoseError
-from .kinematics import Links
+from .kinematics import Links, sin_delta, sin_delta_from_trig
 
 #: Poses with |sin(theta1 - theta2)| below this are refused by the force
 #: inversion.  sin(2 deg): there the error in F is amplified ~29x relative to
 #: a square pose (delta = 90 deg), which no load cell's accuracy survives; the
 #: seed's study stays at |delta| >= 7.5 deg.
 SINGULAR_SIN_DELTA = float(np.sin(np.radians(2.0)))
+
+
+def is_singular(sin_delta, min_sin_delta: float = SINGULAR_SIN_DELTA) -> np.ndarray:
+    """The singularity predicate, used everywhere: ``|sin(theta1 - theta2)| < min_sin_delta``.
+
+    ``sin_delta`` comes from :func:`sailforce.kinematics.sin_delta_from_trig`
+    (or :func:`sailforce.kinematics.sin_delta`), the same formula as libsail's.
+    """
+    return np.abs(sin_delta) < min_sin_delta
+
+
+def singular_poses(theta1, theta2, min_sin_delta: float = SINGULAR_SIN_DELTA) -> np.ndarray:
+    """:func:`is_singular` of poses given by their angles [rad]."""
+    return is_singular(sin_delta(theta1, theta2), min_sin_delta)
 
 #: Poses per block in :func:`end_effector_force`: every temporary of a block
 #: stays in L2 cache.  Measured on 10^7 poses: ~12 M poses/s blocked against
@@ -104,8 +118,8 @@ def _force_block(arm: Links, theta1, theta2, t1, t2, min_sin_delta):
     """Eq. 8 with the corrected (J^T)^-1 on one block; singular entries are left finite but meaningless."""
     c1, s1 = np.cos(theta1), np.sin(theta1)
     c2, s2 = np.cos(theta2), np.sin(theta2)
-    sd = s1 * c2 - c1 * s2  # sin(theta1 - theta2) without a fifth trig call
-    singular = np.abs(sd) < min_sin_delta
+    sd = sin_delta_from_trig(s1, c1, s2, c2)
+    singular = is_singular(sd, min_sin_delta)
     if singular.any():
         sd = np.where(singular, 1.0, sd)
     l2, l3 = arm.l2, arm.l3
@@ -119,7 +133,7 @@ def raise_singular_pose(theta1, theta2, singular, min_sin_delta) -> None:
     """Raise :class:`SingularPoseError` naming the first pose flagged in ``singular`` and the threshold."""
     idx = tuple(int(i) for i in np.argwhere(singular)[0]) if singular.ndim else ()
     where = f" (first at index {idx})" if idx else ""
-    sd = np.sin(theta1[idx] - theta2[idx])
+    sd = sin_delta(theta1[idx], theta2[idx])
     raise SingularPoseError(
         f"{int(np.count_nonzero(singular))} singular pose(s){where}: "
         f"theta1 = {np.degrees(theta1[idx]):.6g} deg, theta2 = {np.degrees(theta2[idx]):.6g} deg "

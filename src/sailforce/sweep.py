@@ -13,7 +13,7 @@ import numpy as np
 
 from .errors import SailError, SingularPoseError
 from .fem.response import ArmResponse, member_stresses
-from .statics import SINGULAR_SIN_DELTA
+from .statics import SINGULAR_SIN_DELTA, singular_poses
 
 #: Slack, in steps, when deciding whether ``stop`` is reached in
 #: ``start:stop:step``: 1e-9 of a step absorbs decimal rounding such as
@@ -39,6 +39,8 @@ def parse_spec(text: str, name: str = "value") -> np.ndarray:
     [-7.5, 7.5, 22.5, 37.5, 52.5, 67.5, 82.5, 97.5]
     >>> parse_spec("120").tolist()
     [120.0]
+    >>> parse_spec("0:0:0").tolist()
+    [0.0]
     """
     parts = text.split(":")
     try:
@@ -52,6 +54,8 @@ def parse_spec(text: str, name: str = "value") -> np.ndarray:
     if len(numbers) != 3:
         raise SpecError(f"{name}: expected start:stop:step with three numbers, got {text!r}")
     start, stop, step = numbers
+    if start == stop:  # a single value written as a range, whatever the step
+        return np.array([start])
     if step == 0 or (stop - start) * step < 0:
         raise SpecError(f"{name}: step {step:g} never goes from {start:g} to {stop:g}")
     count = math.floor((stop - start) / step + SPEC_STEP_SLACK) + 1
@@ -68,14 +72,13 @@ def pose_grid(theta1, theta2) -> tuple[np.ndarray, np.ndarray]:
 
 def check_not_singular(theta1, theta2, min_sin_delta: float = SINGULAR_SIN_DELTA) -> None:
     """Refuse collapsed poses, where the linkage is (nearly) a mechanism."""
-    sin_delta = np.sin(np.asarray(theta1) - np.asarray(theta2))
-    bad = np.abs(sin_delta) < min_sin_delta
+    bad = singular_poses(theta1, theta2, min_sin_delta)
     if np.any(bad):
         i = int(np.argmax(bad))
         t1, t2 = np.degrees(np.ravel(theta1)[i]), np.degrees(np.ravel(theta2)[i])
         raise SingularPoseError(
-            f"{int(bad.sum())} pose(s) with |sin(theta1 - theta2)| < {min_sin_delta:.3g}, the first at "
-            f"theta1 = {t1:g} deg, theta2 = {t2:g} deg: the parallelogram is collapsed there"
+            f"{int(bad.sum())} singular pose(s) with |sin(θ1 − θ2)| < {min_sin_delta:.3g}, the first at "
+            f"θ1 = {t1:g}°, θ2 = {t2:g}°: the parallelogram is collapsed there"
         )
 
 

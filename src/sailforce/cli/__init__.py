@@ -68,6 +68,24 @@ class SailGroup(click.Group):
             importlib.import_module(f"{__name__}.{_COMMAND_MODULES[name]}")  # registers the command
         return self.commands.get(name)
 
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        """Click's main, with every error in one line: ``Error: ...`` and, for usage errors, where to read more."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.UsageError as exc:
+            where = f" (see `{exc.ctx.command_path} --help`)" if exc.ctx is not None else ""
+            click.echo(f"Error: {_one_line(exc.format_message())}{where}", err=True)
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            click.echo(f"Error: {_one_line(exc.format_message())}", err=True)
+            sys.exit(exc.exit_code)
+        except click.Abort:
+            click.echo("sail: aborted", err=True)
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)
+
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
@@ -89,6 +107,10 @@ class SailGroup(click.Group):
                 raise
             raise InternalError(f"internal error, a bug in sailforce: {type(exc).__name__}: {exc} "
                                 "(SAIL_TRACEBACK=1 shows where; please report it)") from None  # fmt: skip
+
+
+def _one_line(message: str) -> str:
+    return " ".join(message.split())
 
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}

@@ -1,7 +1,13 @@
-"""Options shared by several commands."""
+"""Options shared by several commands.
+
+Flag names carry their unit as its SI symbol, as file columns do:
+``--theta1-deg``, ``--force-N``, ``--t1-Nm``, ``--lowpass-Hz``.  Older
+spellings (``--t1``, ``--lowpass-hz``) still work but are not shown.
+"""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
@@ -10,6 +16,36 @@ from ..arm import Arm
 from ..robot import JOINT_MODELS, Robot
 from ..robotfile import load_robot_file
 from ..sweep import parse_spec
+
+
+class PrimaryOption(click.Option):
+    """An option whose help shows only its first spelling; the others are kept for old scripts."""
+
+    def get_help_record(self, ctx):
+        spellings = self.opts
+        self.opts = spellings[:1]
+        try:
+            return super().get_help_record(ctx)
+        finally:
+            self.opts = spellings
+
+
+class FiniteFloat(click.ParamType):
+    """A float that is neither NaN nor infinite; the error names the flag."""
+
+    name = "number"
+
+    def convert(self, value, param, ctx):
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+FINITE = FiniteFloat()
 
 
 def robot_option(func):
@@ -59,19 +95,24 @@ def spec(name: str):
 
 
 def lowpass_options(func):
-    """``--lowpass-hz``, ``--sample-rate-hz``, ``--lowpass-order``: a Butterworth low-pass on the loads."""
-    func = click.option("--lowpass-order", type=click.IntRange(1, 8), default=2, show_default=True, help="Butterworth order.")(func)
-    func = click.option("--sample-rate-hz", type=float, default=None, help="Sample rate of the readings [Hz].")(func)
-    return click.option("--lowpass-hz", type=float, default=None,
-                        help="Butterworth low-pass cutoff on the loads [Hz]; needs --sample-rate-hz.")(func)  # fmt: skip
+    """``--lowpass-Hz``, ``--sample-rate-Hz``, ``--lowpass-order``: a Butterworth low-pass on the loads."""
+    func = click.option("--lowpass-order", type=click.IntRange(1, 8), default=None,
+                        help="Butterworth order (default 2).")(func)  # fmt: skip
+    func = click.option("--sample-rate-Hz", "--sample-rate-hz", "sample_rate_hz", cls=PrimaryOption, type=FINITE,
+                        default=None, help="Sample rate of the readings [Hz]; goes with --lowpass-Hz.")(func)  # fmt: skip
+    return click.option("--lowpass-Hz", "--lowpass-hz", "lowpass_hz", cls=PrimaryOption, type=FINITE, default=None,
+                        help="Butterworth low-pass cutoff on the loads [Hz]; needs --sample-rate-Hz.")(func)  # fmt: skip
 
 
-def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: int):
+def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: int | None):
     """The :class:`sailforce.filters.LowPass` the options ask for, or None."""
     if lowpass_hz is None:
+        if sample_rate_hz is not None or order is not None:
+            given = "--sample-rate-Hz" if sample_rate_hz is not None else "--lowpass-order"
+            raise click.UsageError(f"{given} configures the low-pass, which needs --lowpass-Hz; without it nothing is filtered")
         return None
     if sample_rate_hz is None:
-        raise click.BadParameter("needs --sample-rate-hz", param_hint="--lowpass-hz")
+        raise click.BadParameter("needs --sample-rate-Hz", param_hint="--lowpass-Hz")
     from ..filters import LowPass
 
-    return LowPass(lowpass_hz, sample_rate_hz, order)
+    return LowPass(lowpass_hz, sample_rate_hz, 2 if order is None else order)

@@ -13,6 +13,7 @@ from rich.console import Console
 from ..calfile import Calibration
 from ..calibration import MODEL_KINDS, equivalent_capacity, fit_calibration
 from ..errors import SailError
+from ..io import check_output
 from ..tables import READING_COLUMNS, REFERENCE_COLUMNS, read_all
 from . import cli
 from ._options import load_robot, robot_option
@@ -22,16 +23,24 @@ from ._options import load_robot, robot_option
 #: moved, or the cell is drifting.
 TARE_SPREAD_WARNING = 0.005
 
+#: ``sail tare`` needs at least this many no-load samples: with fewer, the
+#: spread that tells a touched or drifting arm cannot be seen (an HX711 at
+#: 10 Hz gives them in one second).
+MIN_TARE_SAMPLES = 10
+
+#: ``sail tare`` refuses, without --force, new offsets that move by more than
+#: this fraction of a cell's capacity from the calibration's: zero drift of a
+#: load cell is a fraction of a percent, so such a shift means a load on the
+#: arm, a damaged cell or the wrong calibration file.
+TARE_MAX_SHIFT = 0.1
+
 
 def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
     with open(path, "rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+        return hashlib.file_digest(stream, "sha256").hexdigest()
 
 
-def _clean_rows(path: Path, needed: tuple[str, ...]) -> dict[str, np.ndarray]:
+def _clean_rows(path: Path, needed: tuple[str, ...], what: str) -> dict[str, np.ndarray]:
     """Every needed column of a calibration-type table; refuses the first row that is not a full set of numbers."""
     values, malformed, lines = read_all(path, needed)
     bad = malformed.copy()
@@ -39,13 +48,17 @@ def _clean_rows(path: Path, needed: tuple[str, ...]) -> dict[str, np.ndarray]:
         bad |= ~np.isfinite(values[name])
     if bad.any():
         i = int(np.argmax(bad))
-        fields = ", ".join(f"{n}={values[n][i]:g}" for n in needed)
+        fields = ", ".join(f"{n}={_text(values[n][i])}" for n in needed)
         raise SailError(
             f"{path}, line {lines[i]}: not a complete row of finite numbers ({fields}"
             f"{'; wrong number of fields' if malformed[i] else ''}); {int(bad.sum())} such row(s). "
-            "Calibration data must be clean: fix or remove them"
+            f"{what} must be clean: fix or remove them"
         )
     return values
+
+
+def _text(value: float) -> str:
+    return "missing or not a number" if math.isnan(value) else f"{value:g}"
 
 
 def _parse_capacity(ctx, param, value):
@@ -78,7 +91,8 @@ def calibrate_command(data, robot_path, output, kind, capacity, load_unit):
     spanning the Δ = θ1 − θ2 range the robot will use.
     """
     robot = load_robot(robot_path)
-    values = _clean_rows(data, READING_COLUMNS + REFERENCE_COLUMNS)
+    check_output(output, {"the calibration data": data, "the --robot file": robot_path})
+    values = _clean_rows(data, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
     model, offsets, report = fit_calibration(robot.arm, theta1, theta2, values["fx_N"], values["fy_N"],
                                              values["load1"], values["load2"], kind=kind)  # fmt: skip
@@ -106,17 +120,30 @@ def calibrate_command(data, robot_path, output, kind, capacity, load_unit):
 @click.argument("calibration", metavar="CAL.json", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("noload", metavar="NOLOAD.csv", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="New calibration JSON.")
-def tare_command(calibration, noload, output):
+@click.option("--force", is_flag=True, help=f"Accept offsets that move by more than {TARE_MAX_SHIFT:.0%} of a cell's capacity.")
+def tare_command(calibration, noload, output, force):
     """New offsets from a no-load recording: the mean of its load1 and load2.
 
-    NOLOAD has at least the columns load1 and load2, recorded with nothing
-    touching the end effector.  Reports the spread (standard deviation) and
-    warns when it exceeds 0.5% of a cell's capacity.
+    NOLOAD has at least the columns load1 and load2, and at least 10 rows,
+    recorded with nothing touching the end effector.  Reports the spread
+    (standard deviation) and warns when it exceeds 0.5% of a cell's
+    capacity.  Refuses offsets that move by more than 10% of a cell's
+    capacity from the calibration's, unless --force.
     """
+    check_output(output, {"the no-load recording": noload})
     cal = Calibration.load(calibration)
-    values = _clean_rows(noload, ("load1", "load2"))
+    values = _clean_rows(noload, ("load1", "load2"), "A no-load recording")
     loads = np.column_stack([values["load1"], values["load2"]])
-    offsets, spread = loads.mean(axis=0), loads.std(axis=0, ddof=1) if len(loads) > 1 else np.zeros(2)
+    if len(loads) < MIN_TARE_SAMPLES:
+        raise SailError(f"{noload}: {len(loads)} sample(s); a tare needs at least {MIN_TARE_SAMPLES}, so that their "
+                        "spread shows whether the arm was still. Record for longer")  # fmt: skip
+    offsets, spread = loads.mean(axis=0), loads.std(axis=0, ddof=1)
+    shift = np.abs(offsets - np.asarray(cal.offsets)) / np.asarray(cal.capacity)
+    if not force and np.any(shift > TARE_MAX_SHIFT):
+        i = int(np.argmax(shift))
+        raise SailError(f"{noload}: cell {i + 1}'s offset would move by {shift[i]:.0%} of its capacity "
+                        f"({cal.offsets[i]:.6g} -> {offsets[i]:.6g} {cal.load_unit}), more than {TARE_MAX_SHIFT:.0%}: "
+                        "was something touching the arm, or is this the wrong calibration file? --force accepts it")  # fmt: skip
     cal.with_offsets(offsets).save(output)
     console = Console()
     console.print(f"wrote {output}: offsets {offsets[0]:.6g}, {offsets[1]:.6g} {cal.load_unit} from {len(loads)} samples "

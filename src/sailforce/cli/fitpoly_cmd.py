@@ -15,7 +15,8 @@ from . import cli
 
 
 @cli.command("fit-poly")
-@click.argument("table_path", metavar="TABLE.csv", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("table_path", metavar="TABLE.csv", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--seed-table4", is_flag=True, help="Fit the seed's Table 4, which ships with sailforce, instead of TABLE.csv.")
 @click.option("--criterion", type=click.Choice(CRITERIA), default=DEFAULT_CRITERION, show_default=True,
               help="Adjusted R² (the seed's stated rule) or plain R².")
 @click.option("--threshold", type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
@@ -23,16 +24,20 @@ from . import cli
 @click.option("--max-order", type=click.IntRange(0), default=None,
               help="Highest order tried. Default: rows - 2, the highest at which adjusted R² is defined.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON keyed by column: order, coefficients, r2, adj_r2.")
-def fit_poly_command(table_path, criterion, threshold, max_order, as_json):
+def fit_poly_command(table_path, seed_table4, criterion, threshold, max_order, as_json):
     """Fit each column of TABLE.csv against the first, as the seed fitted Table 4.
 
     TABLE.csv has a header row and numbers only.  For each column after the
     first, the lowest polynomial order whose criterion exceeds the threshold
     is chosen; coefficients are printed highest power first.  The seed's own
-    Table 4 ships with sailforce: `sail fit-poly $(python -c "import
-    sailforce, pathlib; print(pathlib.Path(sailforce.__file__).parent /
-    'data/seed_table4.csv')")`.
+    Table 4 ships with sailforce: `sail fit-poly --seed-table4`.
     """
+    if (table_path is None) == (not seed_table4):
+        raise click.UsageError("give TABLE.csv or --seed-table4 (one of them)")
+    if seed_table4:
+        from importlib.resources import files
+
+        table_path = Path(str(files("sailforce") / "data" / "seed_table4.csv"))
     names, table = read_numeric_csv(table_path, min_columns=2)
     fits = {
         name: select_order(table[:, 0], table[:, k], criterion=criterion, threshold=threshold, max_order=max_order)

@@ -8,17 +8,21 @@ from pathlib import Path
 import click
 import numpy as np
 from rich.console import Console
-from rich.progress import Progress
 
 from .. import __version__
 from ..fem.model import build_model
 from ..fem.response import TRANSDUCTION_UNITS, TRANSDUCTIONS, simulate_model
-from ..io import atomic_writer, write_json
+from ..io import check_output, numeric_table_writer, table_format, write_json
 from ..sweep import COLUMNS, check_not_singular, pose_grid, sweep_rows
 from . import cli
-from ._options import joints_option, load_robot, robot_option, spec
+from ._options import FINITE, joints_option, load_robot, robot_option, spec
+from ._progress import progress_bar
 
-POSES_PER_CHUNK = 2048  #: poses solved, and rows written, per progress step
+#: Rows computed and written per step: about 30 MB of working arrays whatever the grid.
+ROWS_PER_CHUNK = 65536
+
+#: Rows refused without --max-rows: about 1 GB of CSV, more than any study of this arm needs.
+MAX_ROWS = 10_000_000
 
 
 @cli.command("simulate")
@@ -29,21 +33,32 @@ POSES_PER_CHUNK = 2048  #: poses solved, and rows written, per progress step
 @click.option("--theta1-deg", required=True, callback=spec("theta1"), help="SPEC: A or start:stop:step (stop inclusive).")
 @click.option("--theta2-deg", required=True, callback=spec("theta2"), help="SPEC for theta2.")
 @click.option("--phi-deg", default="0:345:15", show_default=True, callback=spec("phi"), help="SPEC for the force direction.")
-@click.option("--force-N", "force_n", type=float, default=10.0, show_default=True, help="Force magnitude at A [N].")
+@click.option("--force-N", "force_n", type=FINITE, default=10.0, show_default=True, help="Force magnitude at A [N].")
 @click.option("--shear/--no-shear", default=True, show_default=True, help="Timoshenko (shear-flexible) or Euler-Bernoulli members.")
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="CSV file to write.")
-def simulate_command(robot_path, joints, transduction, theta1_deg, theta2_deg, phi_deg, force_n, shear, output):
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="OUT.csv or OUT.parquet to write; OUT.csv.json beside it records units and options.")
+@click.option("--max-rows", type=click.IntRange(1), default=MAX_ROWS, show_default=True,
+              help="Refuse sweeps with more rows than this (poses x force angles).")
+def simulate_command(robot_path, joints, transduction, theta1_deg, theta2_deg, phi_deg, force_n, shear, output, max_rows):
     """Simulate the load cells over a grid of poses and force directions.
 
-    Writes OUT.csv with the columns theta1_deg, theta2_deg, phi_deg, fx_N,
-    fy_N, load1, load2, t1_Nm, t2_Nm (one row per pose and force angle) and
-    OUT.json beside it, naming the unit of load1/load2, the robot and the
-    options.  Each pose costs two solves (unit Fx, unit Fy); every force
+    Writes OUT.csv (or OUT.parquet) with the columns theta1_deg, theta2_deg,
+    phi_deg, fx_N, fy_N, load1, load2, t1_Nm, t2_Nm (one row per pose and
+    force angle) and OUT.csv.json beside it (the output's name plus .json, so
+    that it never replaces another file), naming the unit of load1/load2,
+    the robot and the options.  Each pose costs two solves (unit Fx, unit Fy); every force
     angle follows by superposition.  Warns when a load cell's shear exceeds
     its capacity.
     """
-    if not math.isfinite(force_n):
-        raise click.BadParameter("must be finite", param_hint="--force-N")
+    sidecar = output.with_name(output.name + ".json")
+    table_format(output)
+    check_output(output, {"the --robot file": robot_path})
+    check_output(sidecar, {"the --robot file": robot_path}, flag=f"the sidecar of -o {output},")
+    n_rows = theta1_deg.size * theta2_deg.size * phi_deg.size
+    if n_rows > max_rows:
+        raise click.UsageError(f"the sweep has {n_rows:,} rows ({theta1_deg.size:,} x {theta2_deg.size:,} poses x "
+                               f"{phi_deg.size:,} force angles), more than --max-rows {max_rows:,}; use coarser steps "
+                               "or raise --max-rows")  # fmt: skip
     robot = load_robot(robot_path, joints)
     theta1, theta2 = pose_grid(np.radians(theta1_deg), np.radians(theta2_deg))
     check_not_singular(theta1, theta2)
@@ -53,22 +68,20 @@ def simulate_command(robot_path, joints, transduction, theta1_deg, theta2_deg, p
     console = Console(stderr=True)
     capacity = robot.loadcell.capacity_N
     overloads, worst_safety, peak_shear = 0, math.inf, 0.0
-    with atomic_writer(output) as stream, Progress(console=console, transient=True) as progress:
-        task = progress.add_task("simulating", total=theta1.size)
-        stream.write(",".join(COLUMNS) + "\n")
-        for start in range(0, theta1.size, POSES_PER_CHUNK):
-            chunk = slice(start, start + POSES_PER_CHUNK)
+    poses_per_chunk = max(1, ROWS_PER_CHUNK // phi.size)
+    with numeric_table_writer(output, COLUMNS) as write, progress_bar(console, "simulating", n_rows, unit="rows") as advance:
+        for start in range(0, theta1.size, poses_per_chunk):
+            chunk = slice(start, start + poses_per_chunk)
             response = simulate_model(model, theta1[chunk], theta2[chunk])
-            rows = sweep_rows(response, phi, force_n, transduction)
-            np.savetxt(stream, np.column_stack([rows[c] for c in COLUMNS]), fmt="%.12g", delimiter=",")
-            shear_abs = np.maximum(np.abs(rows["cell_shear1"]), np.abs(rows["cell_shear2"]))
-            overloads += int(np.count_nonzero(shear_abs > capacity))
-            peak_shear = max(peak_shear, float(shear_abs.max()))
-            worst_safety = min(worst_safety, float(rows["safety_factor"].min()))
-            progress.advance(task, response.theta1.size)
+            for first in range(0, phi.size, ROWS_PER_CHUNK):  # many force angles: a few poses, in blocks of angles
+                rows = sweep_rows(response, phi[first : first + ROWS_PER_CHUNK], force_n, transduction)
+                write(rows)
+                shear_abs = np.maximum(np.abs(rows["cell_shear1"]), np.abs(rows["cell_shear2"]))
+                overloads += int(np.count_nonzero(shear_abs > capacity))
+                peak_shear = max(peak_shear, float(shear_abs.max()))
+                worst_safety = min(worst_safety, float(rows["safety_factor"].min()))
+                advance(shear_abs.size)
 
-    n_rows = theta1.size * phi.size
-    sidecar = output.with_suffix(".json")
     write_json(sidecar, {
         "software": f"sailforce {__version__}",
         "rows": n_rows,

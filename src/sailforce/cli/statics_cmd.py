@@ -12,35 +12,36 @@ from rich.table import Table
 
 from ..kinematics import jacobian_condition, sin_delta
 from ..statics import cartesian, polar
+from ..sweep import check_not_singular
 from . import cli
-from ._options import load_arm, robot_option
+from ._options import FINITE, PrimaryOption, load_arm, robot_option
 
 
 @cli.command("statics")
 @robot_option
-@click.option("--theta1-deg", type=float, required=True, help="Angle of link l1 [deg].")
-@click.option("--theta2-deg", type=float, required=True, help="Angle of link l2 [deg].")
-@click.option("--force-N", "force_n", type=float, help="End-effector force magnitude [N].")
-@click.option("--phi-deg", type=float, help="End-effector force direction [deg].")
-@click.option("--t1", type=float, help="Joint torque on l1 [N m] (T = J^T F).")
-@click.option("--t2", type=float, help="Joint torque on l2 [N m].")
+@click.option("--theta1-deg", type=FINITE, required=True, help="Angle of link l1 [deg].")
+@click.option("--theta2-deg", type=FINITE, required=True, help="Angle of link l2 [deg].")
+@click.option("--force-N", "force_n", type=FINITE, help="End-effector force magnitude [N].")
+@click.option("--phi-deg", type=FINITE, help="End-effector force direction [deg].")
+@click.option("--t1-Nm", "--t1", "t1", cls=PrimaryOption, type=FINITE, help="Joint torque on l1 [N m] (T = J^T F).")
+@click.option("--t2-Nm", "--t2", "t2", cls=PrimaryOption, type=FINITE, help="Joint torque on l2 [N m].")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of a table.")
 def statics_command(robot_path: Path | None, theta1_deg, theta2_deg, force_n, phi_deg, t1, t2, as_json):
     """Joint torques from an end-effector force, or the force from joint torques.
 
-    Give either --force-N and --phi-deg (prints T = J^T F) or --t1 and --t2
-    (prints F = J^-T T, Cartesian and polar).  T is the torque the force
+    Give either --force-N and --phi-deg (prints T = J^T F) or --t1-Nm and
+    --t2-Nm (prints F = J^-T T, Cartesian and polar).  T is the torque the force
     induces at the motors, counter-clockwise positive; the motors hold -T.
     Negative values work as --phi-deg=-30.
     """
     by_force = force_n is not None or phi_deg is not None
     by_torque = t1 is not None or t2 is not None
     if by_force == by_torque:
-        raise click.UsageError("give either --force-N with --phi-deg, or --t1 with --t2")
+        raise click.UsageError("give either --force-N with --phi-deg, or --t1-Nm with --t2-Nm")
     if by_force and (force_n is None or phi_deg is None):
         raise click.UsageError("--force-N and --phi-deg go together")
     if by_torque and (t1 is None or t2 is None):
-        raise click.UsageError("--t1 and --t2 go together")
+        raise click.UsageError("--t1-Nm and --t2-Nm go together")
 
     arm = load_arm(robot_path)
     theta1, theta2 = math.radians(theta1_deg), math.radians(theta2_deg)
@@ -48,6 +49,7 @@ def statics_command(robot_path: Path | None, theta1_deg, theta2_deg, force_n, ph
         fx, fy = cartesian(force_n, math.radians(phi_deg))
         t1, t2 = arm.joint_torques(theta1, theta2, fx, fy)
     else:
+        check_not_singular(theta1, theta2)
         fx, fy = arm.end_effector_force(theta1, theta2, t1, t2)
     magnitude, phi = polar(fx, fy)
     x, y = arm.forward(theta1, theta2)

@@ -4,18 +4,30 @@ from __future__ import annotations
 
 import math
 
-import matplotlib
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.cm import ScalarMappable
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
-from matplotlib.colors import Normalize  # noqa: E402
-
-from ..fem.model import MEMBERS, node_positions  # noqa: E402
-from ..fem.response import ArmResponse, member_stresses  # noqa: E402
+from ..fem.model import MEMBERS, node_positions
+from ..fem.response import ArmResponse, member_stresses
 
 SAMPLES_PER_MEMBER = 24  #: points along each member at which stress colours the drawing
+
+#: Panels one figure may hold: 36 panels of a 4-wide grid are already a poster.
+MAX_PANELS = 36
+
+
+def panel_label(k: int) -> str:
+    """(a), (b), ... (z), (aa), (ab), ...: a panel's letter, for any count."""
+    letters = ""
+    k += 1
+    while k:
+        k, r = divmod(k - 1, 26)
+        letters = chr(97 + r) + letters
+    return f"({letters})"
 
 
 def stress_figure(response: ArmResponse, phi, force: float, title: str = ""):
@@ -25,6 +37,8 @@ def stress_figure(response: ArmResponse, phi, force: float, title: str = ""):
     colour scale; an arrow shows the force at A.  Returns the figure.
     """
     phi = np.atleast_1d(np.asarray(phi, dtype=float))
+    if phi.size > MAX_PANELS:
+        raise ValueError(f"{phi.size} force angles: at most {MAX_PANELS} panels fit a figure")
     theta1, theta2 = float(response.theta1), float(response.theta2)
     positions = node_positions(response.model, theta1, theta2)
     mpa = [
@@ -34,7 +48,8 @@ def stress_figure(response: ArmResponse, phi, force: float, title: str = ""):
     norm = Normalize(0.0, max(float(np.max(m)) for m in mpa) or 1.0)
     cols = min(4, phi.size)
     rows = math.ceil(phi.size / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 3.2 * rows + 0.6), squeeze=False, layout="constrained")
+    fig = Figure(figsize=(3.4 * cols, 3.2 * rows + 0.6), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False)
     reach = response.model.robot.arm.l2 + response.model.robot.arm.l3
     t = np.linspace(0.0, 1.0, SAMPLES_PER_MEMBER)
     corners = np.array(list(positions.values()))
@@ -57,12 +72,14 @@ def stress_figure(response: ArmResponse, phi, force: float, title: str = ""):
         arrow = 0.18 * reach
         ax.annotate("", xy=a + arrow * np.array([math.cos(phi[k]), math.sin(phi[k])]), xytext=a,
                     arrowprops={"arrowstyle": "->", "color": "crimson", "lw": 1.5})  # fmt: skip
-        ax.set_title(f"({chr(97 + k)}) phi = {math.degrees(phi[k]):g} deg", fontsize=9)
+        ax.set_title(f"{panel_label(k)} φ = {math.degrees(phi[k]):g}°", fontsize=9)
+        ax.set_xlabel("x [m]", fontsize=8)
+        ax.set_ylabel("y [m]", fontsize=8)
         ax.set_aspect("equal")
         ax.set_xlim(low[0], high[0])
         ax.set_ylim(low[1], high[1])
         ax.tick_params(labelsize=7)
-    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap="turbo"), ax=axes, label="von Mises stress [MPa]", shrink=0.8)
-    fig.suptitle(title or f"{force:g} N at the end effector, theta1 = {math.degrees(theta1):g} deg, "
-                 f"theta2 = {math.degrees(theta2):g} deg", fontsize=10)  # fmt: skip
+    fig.colorbar(ScalarMappable(norm=norm, cmap=colormaps["turbo"]), ax=axes, label="von Mises stress [MPa]", shrink=0.8)
+    fig.suptitle(title or f"{force:g} N at the end effector, θ1 = {math.degrees(theta1):g}°, "
+                 f"θ2 = {math.degrees(theta2):g}°", fontsize=10)  # fmt: skip
     return fig
