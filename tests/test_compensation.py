@@ -184,7 +184,7 @@ def test_matrix_compensator_refuses_undetermined_data():
 
 
 def test_matrix_compensator_rotation_invariance():
-    """M = C(delta) J^T obeys the delta-only law M(th1, th2) = M(delta, 0) R(-th2) (ERRATA.md, Physics)."""
+    """M = C(delta) J^T obeys the delta-only law M(th1, th2) = M(delta, 0) R(-th2) (docs/errata.md, Physics)."""
     comp = MatrixCompensator(Arm(), np.random.default_rng(3).normal(size=(3, 2, 2)), (0.2, 2.0))
     from sailforce.compensation import rotation
 

@@ -112,7 +112,7 @@ def test_pin_jointed_locked_arm_torques_are_jt_f(pose):
 
 
 def test_pin_jointed_bridge_reads_t_over_l():
-    """ERRATA.md: with ideal pins each driven link carries constant shear T_i / l_i."""
+    """docs/errata.md: with ideal pins each driven link carries constant shear T_i / l_i."""
     robot = Robot()
     theta1 = np.radians(np.arange(15.0, 121.0, 15.0))
     response = simulate(robot, theta1, 0.0)
@@ -153,7 +153,7 @@ def test_global_equilibrium(robot):
 
 @pytest.mark.parametrize("joints", ["pin", "bonded", "spring"])
 def test_rotation_invariance(joints):
-    """ERRATA.md: M(theta1 + a, theta2 + a) = M(theta1, theta2) R(-a)."""
+    """docs/errata.md: M(theta1 + a, theta2 + a) = M(theta1, theta2) R(-a)."""
     robot = Robot(joints=Joints(joints))
     delta, alpha = np.radians(55.0), np.radians(37.0)
     base = simulate(robot, delta, 0.0)

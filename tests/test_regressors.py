@@ -56,7 +56,7 @@ def test_published_regressors_reproduced(column, criterion):
 
 
 def test_a2_is_order_5_under_the_stated_rule():
-    """ERRATA.md: the published A2 (order 4) has adjusted R^2 0.99810 < 0.999, so adj-R^2 picks order 5."""
+    """docs/errata.md: the published A2 (order 4) has adjusted R^2 0.99810 < 0.999, so adj-R^2 picks order 5."""
     table = seed_table4()
     x, y = table[:, 0], table[:, 3]
     fit = select_order(x, y, criterion="adj-r2")

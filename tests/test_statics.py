@@ -1,4 +1,4 @@
-"""Statics: T = J^T F (seed Eqs. 3, 6-7) and its corrected inverse (ERRATA.md)."""
+"""Statics: T = J^T F (seed Eqs. 3, 6-7) and its corrected inverse (docs/errata.md)."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ forces = st.floats(min_value=-1e3, max_value=1e3, allow_nan=False)
 
 
 def test_torques_match_erratum_closed_form():
-    # ERRATA.md: Eq. 7 reduces to T1 = l3 F sin(phi - th1), T2 = l2 F sin(phi - th2).
+    # docs/errata.md: Eq. 7 reduces to T1 = l3 F sin(phi - th1), T2 = l2 F sin(phi - th2).
     arm = Arm()
     theta1, theta2 = np.radians(75.0), np.radians(10.0)
     phi = np.radians(np.arange(0.0, 360.0, 15.0))
@@ -67,7 +67,7 @@ def test_inverse_times_jt_is_identity(arm, theta1, theta2):
 
 
 def test_seed_printed_eq10_fails_the_round_trip():
-    """Regression guard (ERRATA.md): the seed's Eq. 10 is the transpose of (J^T)^-1.
+    """Regression guard (docs/errata.md): the seed's Eq. 10 is the transpose of (J^T)^-1.
 
     If someone "fixes" statics.end_effector_force back to the paper, the
     round-trip tests above fail; this test pins down that the paper's
@@ -87,7 +87,7 @@ def test_seed_printed_eq10_fails_the_round_trip():
 
 
 def test_erratum_explicit_components():
-    # ERRATA.md: Fx = (-l2 c2 T1 + l3 c1 T2) / (l2 l3 sin d), Fy likewise.
+    # docs/errata.md: Fx = (-l2 c2 T1 + l3 c1 T2) / (l2 l3 sin d), Fy likewise.
     arm = Arm()
     th1, th2, T1, T2 = 1.3, 0.25, 0.7, -1.9
     den = arm.l2 * arm.l3 * np.sin(th1 - th2)

@@ -40,7 +40,7 @@ def test_protocol_is_the_errata_protocol():
 
 
 def test_pin_joints_leave_nothing_to_compensate(pin):
-    """Determinate linkage (ERRATA.md): signals exactly proportional to torques, so A = k and P = 0."""
+    """Determinate linkage (docs/errata.md): signals exactly proportional to torques, so A = k and P = 0."""
     table = pin.table4
     np.testing.assert_allclose(table[:, 1], pin.prescale[0], rtol=FE_RTOL)
     np.testing.assert_allclose(table[:, 3], pin.prescale[1], rtol=FE_RTOL)

@@ -28,7 +28,7 @@ def as_float_arrays(**named: object) -> tuple[np.ndarray, ...]:
             bad = np.argwhere(~np.isfinite(array))[0]
             where = f" at index {tuple(int(i) for i in bad)}" if array.ndim else ""
             raise NonFiniteInputError(
-                f"{name}: expected finite numbers, got {array[tuple(bad)]!r}{where}"
+                f"{name}: expected finite numbers, got {float(array[tuple(bad)])!r}{where}"
             )
         arrays.append(array)
     try:

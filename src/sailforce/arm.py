@@ -35,7 +35,7 @@ class Arm:
     - ``l4``: P1 to P3, parallel to l2, so l4 must equal l2.
 
     The defaults are *our assumption*, not the seed's (its Table 1 is garbled,
-    ERRATA.md): a desk-top rehabilitation arm with a 0.75 m reach.
+    docs/errata.md): a desk-top rehabilitation arm with a 0.75 m reach.
 
     >>> Arm()
     Arm(l1=0.2, l2=0.3, l3=0.45, l4=0.3)
@@ -109,7 +109,7 @@ class Arm:
         """Inner and outer radius of the reachable annulus [m]."""
         return abs(self.l2 - self.l3), self.l2 + self.l3
 
-    # -- statics (seed Eqs. 3, 6-8, corrected per ERRATA.md) --------------
+    # -- statics (seed Eqs. 3, 6-8, corrected per docs/errata.md) --------------
     def joint_torques(self, theta1, theta2, fx, fy):
         """T = J^T F [N m]; see :func:`sailforce.statics.joint_torques`."""
         return statics.joint_torques(self, theta1, theta2, fx, fy)

@@ -110,10 +110,16 @@ class Calibration:
         return content
 
     def save(self, path: str | Path) -> None:
-        """Write the calibration file atomically."""
+        """Write the calibration file atomically; refuses a calibration holding NaN or infinity."""
+        try:
+            text = json.dumps(self.to_dict(), indent=2, allow_nan=False)
+        except ValueError:
+            raise CalibrationFileError(
+                f"{path}: the calibration holds a non-finite number (an overflow in the fit?), which a calibration "
+                "file cannot carry; check that the loads are in a sensible unit (counts, mV/V or N)"
+            ) from None
         with atomic_writer(path) as stream:
-            json.dump(self.to_dict(), stream, indent=2)
-            stream.write("\n")
+            stream.write(text + "\n")
 
     @classmethod
     def load(cls, path: str | Path) -> "Calibration":

@@ -5,7 +5,7 @@ and joint angles.  The model of a reading is
 
     load = offset + M(theta1, theta2) F,
 
-linear in the force; ERRATA.md (Physics) shows M depends on delta only, up
+linear in the force; docs/errata.md (Physics) shows M depends on delta only, up
 to a rotation by theta2.  Two forms of M are fitted (``--model``):
 
 - ``seed``: the paper's amplitude and phase polynomials per load cell
@@ -165,7 +165,7 @@ def equivalent_capacity(model, arm: Arm, capacity_N: float, delta_range: tuple[f
     """Raw reading (offset removed) at which each cell reaches its rated force, ``(2,)``.
 
     A driven link of a determinate linkage carries the shear T_i / l_i
-    (ERRATA.md, Physics), so the cell's rated shear corresponds to the torque
+    (docs/errata.md, Physics), so the cell's rated shear corresponds to the torque
     capacity_N * l_i; the fitted map at mid-range delta converts that torque
     to raw units.  It is an estimate: bending frames share load differently.
     Override it with explicit capacities when the cell's raw full scale is known.

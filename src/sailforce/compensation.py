@@ -33,7 +33,7 @@ A_i, which is how the compensator rebuilds the sensing matrix.  The seed
 does not state its sign convention; the report compares magnitudes and
 trends with that caveat.
 
-Delta-only dependence (ERRATA.md, Physics): with locked motors and no
+Delta-only dependence (docs/errata.md, Physics): with locked motors and no
 gravity, M(theta1, theta2) = M0(delta) R(-theta2).  Both compensators are
 functions of delta alone in that frame.
 """

@@ -36,5 +36,5 @@ class SingularPoseError(SailError):
     """A pose where |sin(theta1 - theta2)| is too small to invert J^T.
 
     There the parallelogram is (nearly) collapsed, and the end-effector force
-    error grows as 1/|sin(theta1 - theta2)| (ERRATA.md, Statics).
+    error grows as 1/|sin(theta1 - theta2)| (docs/errata.md, Statics).
     """

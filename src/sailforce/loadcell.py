@@ -98,7 +98,7 @@ class LoadCell:
         V the shear [N], N the axial force [N], M the bending moment at the
         cell's centre [N m].  An ideal bending-beam cell (c_N = c_M = 0)
         responds to shear only, which is why it reads T_i / l_i on a
-        pin-jointed arm (ERRATA.md).
+        pin-jointed arm (docs/errata.md).
         """
         load = shear + self.crosstalk_axial * axial + self.crosstalk_moment * moment / self.length
         return self.rated_output_mV_V * load / self.capacity_N

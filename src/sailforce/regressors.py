@@ -4,7 +4,7 @@ The seed (Section 3, after Table 4) fits each column of Table 4 against
 delta with "the minimum polynomial order resulting in an adjusted R^2 >
 0.999".  That rule reproduces its A1, P1 and P2; its published A2 is the
 order-4 fit, whose plain R^2 (0.99919) passes but whose adjusted R^2
-(0.99810) does not, so A2 follows a plain-R^2 rule (ERRATA.md).  Both
+(0.99810) does not, so A2 follows a plain-R^2 rule (docs/errata.md).  Both
 criteria are offered here and every fit says which one chose it.
 
 Coefficients are stored highest power first, as the seed prints them and as

@@ -1,7 +1,7 @@
 """The seed paper's formulas *as printed*, kept only to compare against.
 
 Nothing in sailforce computes with these.  They exist so that tests and the
-report can show where the paper goes wrong (ERRATA.md) and so that nobody
+report can show where the paper goes wrong (docs/errata.md) and so that nobody
 "fixes" the correct code back to the paper.
 """
 

@@ -5,7 +5,7 @@ seed's dynamic model (Eq. 2) reduces to T = J^T F (Eq. 3).  T is the torque
 the end-effector force *induces* at the motor axes B, counter-clockwise
 positive; the motors' holding torque is -T.
 
-Departure from the seed (ERRATA.md, Statics): the seed's inverse of J^T
+Departure from the seed (docs/errata.md, Statics): the seed's inverse of J^T
 (Eq. 10) is the transpose of the true inverse, and Eqs. 11-12 inherit that
 error; Eq. 13 (polar form) is garbled.  Here
 
@@ -53,7 +53,7 @@ def joint_torques(arm: Links, theta1, theta2, fx, fy) -> tuple[np.ndarray, np.nd
     """Joint torques T = J^T F [N m] induced by the end-effector force (fx, fy) [N].
 
     Seed Eqs. 3, 6 and 7, which reduce to T1 = l3 |F| sin(phi - theta1) and
-    T2 = l2 |F| sin(phi - theta2) (ERRATA.md).
+    T2 = l2 |F| sin(phi - theta2) (docs/errata.md).
 
     >>> from sailforce import Arm
     >>> t1, t2 = joint_torques(Arm(), np.pi / 2, 0.0, 0.0, 10.0)
@@ -80,7 +80,7 @@ def end_effector_force(
 ):
     """End-effector force F = (J^T)^-1 T [N] from joint torques (t1, t2) [N m].
 
-    Uses the corrected inverse (module docstring, ERRATA.md), not the seed's
+    Uses the corrected inverse (module docstring, docs/errata.md), not the seed's
     Eq. 10-12.  Where |sin(theta1 - theta2)| < ``min_sin_delta``:
 
     - ``on_singular="raise"`` (default) raises :class:`SingularPoseError`

@@ -30,8 +30,8 @@ from .calfile import Calibration
 from .estimator import INVALID, STATUS_NAMES
 from .filters import LowPass
 from .io import atomic_writer
-from .tables import (READING_COLUMNS, Chunk, Header, TableError, csv_chunks, csv_header, is_parquet, read_chunks,
-                     read_header)
+from .tables import (READING_COLUMNS, Chunk, Header, TableError, csv_chunks, csv_header, is_parquet, parquet_schema,
+                     read_chunks, read_header)
 
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
 _STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
@@ -165,7 +165,7 @@ def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _P
 def _csv_output_header(source: Path, header: Header | None) -> bytes:
     if header is not None:
         return header.line + _OUTPUT_HEADER
-    schema = pq.read_schema(source)
+    schema = parquet_schema(source, READING_COLUMNS)
     nested = [f"{f.name!r} ({f.type})" for f in schema if pa.types.is_nested(f.type)]
     if nested:
         raise TableError(f"{source}: column(s) {', '.join(nested)} cannot be written as CSV; write Parquet output instead")
@@ -209,18 +209,20 @@ def stream_estimate(
             on_chunk(job[1].num_rows, job[1].input_size)
 
     with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
-        if parquet is None:
-            stream.write(_csv_output_header(source, header))
-        pending: deque[tuple[Future, Chunk]] = deque()
-        for chunk in read_chunks(source, READING_COLUMNS):
-            loads = _loads(chunk.values, chunk.malformed, lowpass)
-            pending.append((pool.submit(_chunk_output, cal, chunk, loads, parquet), chunk))
-            while len(pending) >= WORKERS:
+        try:
+            if parquet is None:
+                stream.write(_csv_output_header(source, header))
+            pending: deque[tuple[Future, Chunk]] = deque()
+            for chunk in read_chunks(source, READING_COLUMNS):
+                loads = _loads(chunk.values, chunk.malformed, lowpass)
+                pending.append((pool.submit(_chunk_output, cal, chunk, loads, parquet), chunk))
+                while len(pending) >= WORKERS:
+                    write(pending.popleft())
+            while pending:
                 write(pending.popleft())
-        while pending:
-            write(pending.popleft())
-        if writer is not None:
-            writer.close()
+        finally:
+            if writer is not None:  # before the file closes, also when a chunk fails
+                writer.close()
         if not counts.sum():
             raise TableError(f"{source}: no data rows below the header")
     return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}

@@ -1,6 +1,6 @@
 """The seed paper's virtual study (Section 3), run on the frame model: no plotting here.
 
-:func:`run_study` follows the protocol exactly as ERRATA.md lists it:
+:func:`run_study` follows the protocol exactly as docs/errata.md lists it:
 
 1. stress patterns: 10 N at phi = 0..315 deg in 45 deg steps, at
    :attr:`Protocol.stress_pose_deg` (the seed does not say which pose);
@@ -53,7 +53,7 @@ def _steps(start: float, stop: float, step: float) -> tuple[float, ...]:
 
 @dataclass(frozen=True)
 class Protocol:
-    """The seed's study protocol (Section 3; ERRATA.md, The study protocol), in degrees."""
+    """The seed's study protocol (Section 3; docs/errata.md, The study protocol), in degrees."""
 
     force_N: float = 10.0
     phi_deg: tuple[float, ...] = _steps(0.0, 345.0, 15.0)
@@ -159,7 +159,7 @@ class StudyResult:
     force_rmse: dict[str, float]  #: force-vector RMSE [N] on both validation grids, per model
     workspace: WorkspaceErrors
     #: largest difference between the sweeps' amplitude (relative) and phase [deg] of the
-    #: same cell at the same delta: zero in a linear model (ERRATA.md, Physics)
+    #: same cell at the same delta: zero in a linear model (docs/errata.md, Physics)
     delta_only_discrepancy: dict[str, float]
     timings: dict[str, float] = field(default_factory=dict, compare=False)
 

@@ -15,9 +15,9 @@ read line by line from a stream give the same rows (`docs/guarantees.md`):
   quoting (:mod:`csv`), but a quote never continues a row onto the next
   line, so newlines inside quoted fields are not supported;
 - a row whose field count differs from the header's, a blank line, a line
-  that cannot be split (a stray ``\\r`` inside quotes, a quoted field over
-  :func:`csv.field_size_limit`) and a line longer than
-  :data:`MAX_LINE_BYTES` are **malformed**: their numbers are NaN and the
+  that cannot be split (a stray ``\\r`` inside quotes), a field longer than
+  :data:`MAX_FIELD_CHARS` and a line longer than :data:`MAX_LINE_BYTES` are
+  **malformed**: their numbers are NaN and the
   caller marks them ``invalid``.  A line longer than :data:`MAX_LINE_BYTES`
   is not copied (its pass-through text is empty);
 - a needed field that is empty or not a number is NaN.
@@ -53,6 +53,10 @@ CHUNK_BYTES = 2 << 20
 #: A line longer than this is malformed and not copied: a reading is under
 #: 200 bytes, and reading on would let one corrupt line exhaust memory.
 MAX_LINE_BYTES = 1 << 20
+
+#: A field longer than this (in characters) makes its row malformed: the
+#: limit of Python's csv module, which reads quoted lines, applied to every line.
+MAX_FIELD_CHARS = 128 << 10
 
 #: The spellings of a number that Arrow's string-to-float64 cast reads
 #: (checked in tests/test_tables.py), matched case-insensitively.
@@ -216,7 +220,7 @@ def parse_lines(data: bytes, names: list[str], needed: tuple[str, ...], first_li
 
 def _parse_fast(data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk | None:
     """Arrow's CSV parser, for the common chunk with no quote, no stray CR and no over-long line."""
-    if b'"' in data:
+    if b'"' in data or not _is_utf8(data):  # Arrow's row handler cannot take invalid UTF-8
         return None
     ends = np.flatnonzero(np.frombuffer(data, np.uint8) == 10)
     carriage_returns = data.count(b"\r")
@@ -224,7 +228,8 @@ def _parse_fast(data: bytes, names: list[str], needed: tuple[str, ...], first_li
     if carriage_returns and not crlf:
         return None
     offsets = np.concatenate(([0], ends + 1)).astype(np.int32)
-    if np.diff(offsets).max() - 1 > MAX_LINE_BYTES:
+    lengths = np.diff(offsets) - (2 if crlf else 1)
+    if lengths.min() == 0 or lengths.max() > MAX_FIELD_CHARS:  # a blank line, or a field that might be too long
         return None
     invalid = []
     try:
@@ -266,14 +271,24 @@ def _parse_slowly(data: bytes, names: list[str], needed: tuple[str, ...], first_
     return Chunk(table, values, np.array(malformed, dtype=bool), first_line, pa.array(kept, type=pa.binary()))
 
 
-def _split(text: str) -> tuple[list[str], bool]:
-    """The fields of one line, and whether it could be split at all."""
-    if '"' not in text:
-        return text.split(","), True
+def _is_utf8(data: bytes) -> bool:
     try:
-        return next(csv.reader([text]), []), True
-    except csv.Error:  # a CR inside quotes, a field over csv.field_size_limit()
-        return [], False
+        data.decode("utf-8")
+        return True
+    except UnicodeDecodeError:
+        return False
+
+
+def _split(text: str) -> tuple[list[str], bool]:
+    """The fields of one line, and whether it is a line of fields at all (none too long)."""
+    if '"' not in text:
+        fields = text.split(",")
+    else:
+        try:
+            fields = next(csv.reader([text]), [""])
+        except csv.Error:  # a CR inside quotes, a field over csv.field_size_limit()
+            return [""], False
+    return fields, len(text) <= MAX_FIELD_CHARS or max(map(len, fields)) <= MAX_FIELD_CHARS
 
 
 def _strip_line_end(line: bytes) -> bytes:
@@ -297,10 +312,10 @@ def to_float(column: pa.ChunkedArray | pa.Array) -> np.ndarray:
     return pc.cast(numbers, pa.float64()).to_numpy(zero_copy_only=False).astype(float, copy=False)
 
 
-def _parquet_chunks(path: Path, needed: tuple[str, ...]) -> Iterator[Chunk]:
+def parquet_schema(path: Path, needed: tuple[str, ...]) -> pa.Schema:
+    """The schema of a Parquet table, checked for the needed columns and their types."""
     try:
-        parquet = pq.ParquetFile(path)
-        schema = parquet.schema_arrow
+        schema = pq.read_schema(path)
     except (pa.ArrowInvalid, OSError) as exc:
         raise TableError(f"{path}: not a readable Parquet file ({exc})") from None
     check_columns(path, list(schema.names), needed)
@@ -309,9 +324,14 @@ def _parquet_chunks(path: Path, needed: tuple[str, ...]) -> Iterator[Chunk]:
         if not (pa.types.is_integer(kind) or pa.types.is_floating(kind) or pa.types.is_string(kind)
                 or pa.types.is_large_string(kind) or pa.types.is_decimal(kind)):  # fmt: skip
             raise TableError(f"{path}: column {name!r} holds {kind}, not numbers")
+    return schema
+
+
+def _parquet_chunks(path: Path, needed: tuple[str, ...]) -> Iterator[Chunk]:
+    parquet_schema(path, needed)
     line = 1
     try:
-        for batch in parquet.iter_batches(batch_size=1 << 18):
+        for batch in pq.ParquetFile(path).iter_batches(batch_size=1 << 18):
             table = pa.Table.from_batches([batch])
             values = {n: to_float(table.column(n)) for n in needed}
             yield Chunk(table, values, np.zeros(table.num_rows, dtype=bool), line, input_size=table.num_rows)

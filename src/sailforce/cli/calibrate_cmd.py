@@ -34,6 +34,10 @@ MIN_TARE_SAMPLES = 10
 #: arm, a damaged cell or the wrong calibration file.
 TARE_MAX_SHIFT = 0.1
 
+#: Readings and forces beyond this magnitude are refused: a 24-bit ADC gives
+#: 8.4e6 counts, and squares of 1e150 already overflow float64 in the fit.
+MAX_ABS_VALUE = 1e12
+
 
 def _sha256(path: Path) -> str:
     with open(path, "rb") as stream:
@@ -45,12 +49,12 @@ def _clean_rows(path: Path, needed: tuple[str, ...], what: str) -> dict[str, np.
     values, malformed, lines = read_all(path, needed)
     bad = malformed.copy()
     for name in needed:
-        bad |= ~np.isfinite(values[name])
+        bad |= ~(np.abs(values[name]) <= MAX_ABS_VALUE)
     if bad.any():
         i = int(np.argmax(bad))
         fields = ", ".join(f"{n}={_text(values[n][i])}" for n in needed)
         raise SailError(
-            f"{path}, line {lines[i]}: not a complete row of finite numbers ({fields}"
+            f"{path}, line {lines[i]}: not a complete row of numbers within ±{MAX_ABS_VALUE:g} ({fields}"
             f"{'; wrong number of fields' if malformed[i] else ''}); {int(bad.sum())} such row(s). "
             f"{what} must be clean: fix or remove them"
         )

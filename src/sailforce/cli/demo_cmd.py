@@ -61,7 +61,7 @@ def _round_trip(console: Console, arm: Arm) -> None:
     console.print(table)
     console.print(
         "The last column applies the seed's printed Eq. 10/11, which is the transpose of the true "
-        "inverse (ERRATA.md): it does not recover the force."
+        "inverse (docs/errata.md): it does not recover the force."
     )
 
 

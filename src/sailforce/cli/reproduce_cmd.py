@@ -36,7 +36,7 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
               help="A second pass with this joint model, compared in the report (skipped if equal to --joints).")
 @click.option("--dpi", type=click.IntRange(50, 600), default=DEFAULT_DPI, show_default=True, help="Figure resolution.")
 def reproduce_command(output, robot_path, joints, transduction, criterion, threshold, compare_joints, dpi):
-    """Run the seed's virtual study (ERRATA.md protocol) and write a report.
+    """Run the seed's virtual study (docs/errata.md protocol) and write a report.
 
     Stress patterns (Fig. 4), sweeps 1 and 2 (Fig. 5), Table 4 by
     least-squares sinusoid fits, polynomial regressors, validation with the

@@ -179,7 +179,7 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
         "**Joints that carry moment** (SolidWorks' default bonded contact, or stiff bearings) close the "
         "parallelogram into a statically indeterminate frame that shares load through bending, and amplitude "
         "and phase deviations appear that vary with Δ. On the default robot with bonded joints, our phases have the seed's signs (P1 > 0, "
-        "P2 < 0, both growing with Δ), which supports ERRATA.md's hypothesis that its SolidWorks model had "
+        "P2 < 0, both growing with Δ), which supports docs/errata.md's hypothesis that its SolidWorks model had "
         "bonded or otherwise moment-carrying joints. Their size depends on how stiff the joints and links are "
         "relative to the load cells; the seed's Table 1 is garbled, so we cannot match its geometry.",
         "**The Δ-only dependence.** With locked motors and no gravity, changing θ2 at fixed Δ rotates the whole "
