@@ -124,6 +124,10 @@ CASES = [
          files={"d.csv": b"theta1_deg,theta2_deg,load1,load2,fx_N,fy_N\n" + b"90,0,1e300,2e300,1,0\n" * 30}),
     Case("stray CR in a line", ("estimate", "--calibration", "cal.json", "cr.csv", "-o", "out.csv"), 0,
          files=_base(**{"cr.csv": HEADER + b"90,0,1\r2,3,x\n" + reading()}), output="out.csv", rows_of=("cr.csv", "out.csv")),
+    Case("calibration file with 1e999", ("estimate", "--calibration", "c.json", "in.csv", "-o", "o.csv"), 1, "out of range",
+         files={"c.json": CAL.replace(b'"capacity": [', b'"capacity": [1e999, '), "in.csv": GOOD}),  # found by make fuzz
+    Case("calibration file with NaN", ("estimate", "--calibration", "c.json", "in.csv", "-o", "o.csv"), 1, "NaN",
+         files={"c.json": CAL.replace(b'"capacity": [', b'"capacity": [NaN, '), "in.csv": GOOD}),
     Case("serial URL foo://", ("estimate", "--calibration", "cal.json", "--serial", "foo://"), 1, "cannot open", files=_base()),
     Case("stress -o x.xyz", ("stress", "-o", "x.xyz"), 2, "unknown image format"),
     Case("NaN force", ("statics", "--theta1-deg=90", "--theta2-deg=0", "--force-N=nan", "--phi-deg=0"), 2, "--force-N"),
@@ -138,6 +142,7 @@ CASES = [
          files=_base()),
     Case("export-c low-pass name clash", ("export-c", "cal.json", "--name", "sail", "--lowpass-Hz", "5", "--sample-rate-Hz", "80",
                                           "-o", "h.h"), 1, "sail_lowpass", files=_base()),
+    Case("export-c -o CAL", ("export-c", "cal.json", "-o", "cal.json"), 1, "calibration file", files=_base()),
     # 11. stress names what it wrote.
     Case("stress without extension", ("stress", "-o", "fig"), 0, "wrote fig.png", output="fig.png"),
     # 12. tare.

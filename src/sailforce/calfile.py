@@ -126,11 +126,13 @@ class Calibration:
         """Read and validate a calibration file; :class:`CalibrationFileError` says what is wrong."""
         path = Path(path)
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(path.read_text(encoding="utf-8"), parse_float=_finite, parse_constant=_not_a_number)
         except FileNotFoundError:
             raise CalibrationFileError(f"{path}: no such calibration file") from None
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise CalibrationFileError(f"{path}: not a calibration file (invalid JSON: {exc})") from None
+        except ValueError as exc:  # from the hooks: a number JSON may spell but a calibration cannot hold
+            raise CalibrationFileError(f"{path}: not a calibration file ({exc})") from None
         return cls.from_dict(data, str(path))
 
     @classmethod
@@ -147,7 +149,10 @@ class Calibration:
             fail(f"missing field(s) {', '.join(missing)}")
         if data["schema_version"] != SCHEMA_VERSION:
             fail(f"schema_version {data['schema_version']!r} is not supported (this sailforce reads {SCHEMA_VERSION})")
-        expected = checksum({k: v for k, v in data.items() if k != "checksum"})
+        try:
+            expected = checksum({k: v for k, v in data.items() if k != "checksum"})
+        except (TypeError, ValueError) as exc:
+            fail(f"content that a calibration file cannot hold ({exc})")
         if data["checksum"] != expected:
             fail("checksum does not match the content: the file was edited or corrupted; recalibrate or re-tare")
         try:
@@ -171,6 +176,17 @@ class Calibration:
                    str(units.get("load", "raw")) if isinstance(units, dict) else "raw",
                    data["metrics"] if isinstance(data["metrics"], dict) else {},
                    str(data["data_sha256"]), str(data["created"]), str(data["software"]))  # fmt: skip
+
+
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"the number {text} is out of range")
+    return value
+
+
+def _not_a_number(text: str) -> float:
+    raise ValueError(f"{text} is not a number a calibration file may hold")
 
 
 def checksum(content: dict) -> str:

@@ -10,7 +10,7 @@ from rich.console import Console
 
 from ..calfile import Calibration
 from ..export_c import calibration_header
-from ..io import atomic_writer
+from ..io import atomic_writer, check_output
 from . import cli
 from ._options import lowpass_options, make_lowpass
 
@@ -29,6 +29,7 @@ def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowp
     holds the filter's second-order sections as `sail_lowpass NAME_lowpass`,
     for sail_lowpass_init.
     """
+    check_output(output, {"the calibration file": calibration})
     cal = Calibration.load(calibration)
     lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order)
     text = calibration_header(cal, name, source=calibration.name, lowpass=lowpass)
