@@ -30,8 +30,8 @@ from .calfile import Calibration
 from .estimator import INVALID, STATUS_NAMES
 from .filters import LowPass
 from .io import atomic_writer
-from .tables import (READING_COLUMNS, Chunk, Header, TableError, csv_chunks, csv_header, is_parquet, parquet_schema,
-                     read_chunks, read_header)
+from .tables import (READING_COLUMNS, Chunk, Header, TableError, chunk_jobs, csv_chunks, csv_header, is_parquet,
+                     parquet_schema, read_header)
 
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
 _STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
@@ -148,18 +148,26 @@ def _cast_fails(value: str, kind: pa.DataType) -> bool:
         return True
 
 
+def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: _ParquetTypes | None):
+    chunk = job()
+    return _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, None), parquet)
+
+
 def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _ParquetTypes | None):
-    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet) and its status counts."""
+    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and the chunk."""
     columns, status = _estimate(cal, chunk.values, chunk.malformed, loads)
     counts = np.bincount(status, minlength=len(STATUS_NAMES))
     if parquet is not None:
         table = parquet.convert(chunk) if chunk.lines is not None else chunk.table
-        return _output_table(table, columns, status), counts
-    if chunk.lines is not None:
-        return csv_rows(chunk.lines, columns, status), counts
-    sink = pa.BufferOutputStream()  # Parquet in, CSV out: Arrow's writer formats the typed columns
-    pacsv.write_csv(_output_table(chunk.table, columns, status), sink, pacsv.WriteOptions(include_header=False))
-    return sink.getvalue().to_pybytes(), counts
+        return _output_table(table, columns, status), counts, chunk
+    if chunk.lines is not None and not chunk.verbatim:
+        return csv_rows(chunk.lines, columns, status), counts, chunk
+    # Arrow's writer: for Parquet input it formats the typed columns; for a verbatim CSV chunk, unquoted, it
+    # writes the very bytes csv_rows would (tests/test_differential.py), some 25% faster.
+    options = pacsv.WriteOptions(include_header=False, quoting_style="none" if chunk.verbatim else "needed")
+    sink = pa.BufferOutputStream()
+    pacsv.write_csv(_output_table(chunk.table, columns, status), sink, options)
+    return sink.getvalue().to_pybytes(), counts, chunk
 
 
 def _csv_output_header(source: Path, header: Header | None) -> bytes:
@@ -196,9 +204,9 @@ def stream_estimate(
     header = csv_header(source, READING_COLUMNS)
     writer = None
 
-    def write(job: tuple[Future, Chunk]) -> None:
+    def write(job: Future) -> None:
         nonlocal writer, counts
-        output, chunk_counts = job[0].result()
+        output, chunk_counts, chunk = job.result()
         if parquet is not None:
             writer = writer or pq.ParquetWriter(stream, output.schema)
             writer.write_table(output)
@@ -206,17 +214,21 @@ def stream_estimate(
             stream.write(output)
         counts += chunk_counts
         if on_chunk:
-            on_chunk(job[1].num_rows, job[1].input_size)
+            on_chunk(chunk.num_rows, chunk.input_size)
 
     with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
         try:
             if parquet is None:
                 stream.write(_csv_output_header(source, header))
-            pending: deque[tuple[Future, Chunk]] = deque()
-            for chunk in read_chunks(source, READING_COLUMNS):
-                loads = _loads(chunk.values, chunk.malformed, lowpass)
-                pending.append((pool.submit(_chunk_output, cal, chunk, loads, parquet), chunk))
-                while len(pending) >= WORKERS:
+            pending: deque[Future] = deque()
+            for job in chunk_jobs(source, READING_COLUMNS):
+                if lowpass is None:  # chunks are independent: parse them on the workers too
+                    pending.append(pool.submit(_job_output, cal, job, parquet))
+                else:  # the filter runs through the stream in order
+                    chunk = job()
+                    loads = _loads(chunk.values, chunk.malformed, lowpass)
+                    pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet))
+                while len(pending) > WORKERS:
                     write(pending.popleft())
             while pending:
                 write(pending.popleft())
@@ -247,7 +259,7 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     out.write(header.line + _OUTPUT_HEADER)
     out.flush()
     for chunk in csv_chunks(source, header, READING_COLUMNS, _whole_lines(lines), fast=False):
-        output, chunk_counts = _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, lowpass), None)
+        output, chunk_counts, _ = _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, lowpass), None)
         out.write(output)
         out.flush()
         counts += chunk_counts

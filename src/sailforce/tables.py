@@ -33,7 +33,8 @@ import csv
 import io
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import BinaryIO, Iterable, Iterator
+from functools import partial
+from typing import BinaryIO, Callable, Iterable, Iterator
 
 import numpy as np
 import pyarrow as pa
@@ -78,6 +79,7 @@ class Chunk:
     first_line: int  #: file line of the first row (1 is the header), for messages
     lines: pa.Array | None = None  #: CSV only: each row's input line (binary, without its line end)
     input_size: int = 0  #: how much of the input the chunk covers, in :func:`input_size`'s unit
+    verbatim: bool = False  #: CSV: each line is exactly its fields joined by commas (no quote, width as the header's)
 
     @property
     def num_rows(self) -> int:
@@ -98,15 +100,28 @@ def is_parquet(path: Path) -> bool:
 
 def read_chunks(path: str | Path, needed: tuple[str, ...], chunk_bytes: int | None = None) -> Iterator[Chunk]:
     """Yield the table at ``path`` chunk by chunk (CSV or Parquet by extension)."""
+    for job in chunk_jobs(path, needed, chunk_bytes):
+        yield job()
+
+
+def chunk_jobs(path: str | Path, needed: tuple[str, ...], chunk_bytes: int | None = None) -> Iterator[Callable[[], Chunk]]:
+    """Like :func:`read_chunks`, but each chunk comes as a function that parses it, to be run on any thread.
+
+    The file is read in order here; only the parsing is deferred.
+    """
     path = Path(path)
     if not path.is_file():
         raise TableError(f"{path}: no such file")
     if is_parquet(path):
-        yield from _parquet_chunks(path, needed)
-    else:
-        with open(path, "rb") as stream:
-            header = read_header(path, stream.readline(MAX_LINE_BYTES + 1), needed)
-            yield from csv_chunks(path, header, needed, _line_blocks(stream, chunk_bytes or CHUNK_BYTES))
+        for chunk in _parquet_chunks(path, needed):
+            yield lambda chunk=chunk: chunk
+        return
+    with open(path, "rb") as stream:
+        header = read_header(path, stream.readline(MAX_LINE_BYTES + 1), needed)
+        line = 2
+        for block in _line_blocks(stream, chunk_bytes or CHUNK_BYTES):
+            yield partial(_csv_chunk, block, header.names, needed, line, True)
+            line += block.count(b"\n")
 
 
 def input_size(path: str | Path) -> int:
@@ -178,9 +193,14 @@ def csv_chunks(source: object, header: Header, needed: tuple[str, ...], blocks: 
     """
     line = 2
     for block in blocks:
-        chunk = parse_lines(block, header.names, needed, line) if fast else _parse_slowly(block, header.names, needed, line)
+        chunk = _csv_chunk(block, header.names, needed, line, fast)
         line += chunk.num_rows
-        yield replace(chunk, input_size=len(block))
+        yield chunk
+
+
+def _csv_chunk(block: bytes, names: list[str], needed: tuple[str, ...], first_line: int, fast: bool) -> Chunk:
+    chunk = parse_lines(block, names, needed, first_line) if fast else _parse_slowly(block, names, needed, first_line)
+    return replace(chunk, input_size=len(block))
 
 
 def _line_blocks(stream: BinaryIO, chunk_bytes: int) -> Iterator[bytes]:
@@ -223,7 +243,7 @@ def _parse_fast(data: bytes, names: list[str], needed: tuple[str, ...], first_li
     if b'"' in data or not _is_utf8(data):  # Arrow's row handler cannot take invalid UTF-8
         return None
     ends = np.flatnonzero(np.frombuffer(data, np.uint8) == 10)
-    carriage_returns = data.count(b"\r")
+    carriage_returns = data.count(b"\r") if b"\r" in data else 0  # counting costs; looking does not
     crlf = carriage_returns == ends.size and data.count(b"\r\n") == ends.size
     if carriage_returns and not crlf:
         return None
@@ -235,7 +255,7 @@ def _parse_fast(data: bytes, names: list[str], needed: tuple[str, ...], first_li
     try:
         table = pacsv.read_csv(
             io.BytesIO(data),
-            read_options=pacsv.ReadOptions(column_names=names, block_size=max(len(data), 1 << 20)),
+            read_options=pacsv.ReadOptions(column_names=names),  # lines under 128 KiB: any block size will do
             parse_options=pacsv.ParseOptions(quote_char=False, ignore_empty_lines=False,
                                              invalid_row_handler=lambda row: invalid.append(row) or "skip"),
             convert_options=pacsv.ConvertOptions(column_types={n: pa.string() for n in names}, strings_can_be_null=False),
@@ -247,7 +267,7 @@ def _parse_fast(data: bytes, names: list[str], needed: tuple[str, ...], first_li
     lines = pa.Array.from_buffers(pa.binary(), ends.size, [None, pa.py_buffer(offsets), pa.py_buffer(data)])
     lines = pc.binary_slice(lines, 0, -2 if crlf else -1)
     values = {n: to_float(table.column(n)) for n in needed}
-    return Chunk(table, values, np.zeros(table.num_rows, dtype=bool), first_line, lines)
+    return Chunk(table, values, np.zeros(table.num_rows, dtype=bool), first_line, lines, verbatim=True)
 
 
 def _parse_slowly(data: bytes, names: list[str], needed: tuple[str, ...], first_line: int) -> Chunk:
