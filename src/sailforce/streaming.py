@@ -154,20 +154,20 @@ def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: _ParquetTyp
 
 
 def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _ParquetTypes | None):
-    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and the chunk."""
+    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and its size."""
     columns, status = _estimate(cal, chunk.values, chunk.malformed, loads)
     counts = np.bincount(status, minlength=len(STATUS_NAMES))
     if parquet is not None:
-        table = parquet.convert(chunk) if chunk.lines is not None else chunk.table
-        return _output_table(table, columns, status), counts, chunk
+        table = parquet.convert(chunk) if chunk.from_csv else chunk.table
+        return _output_table(table, columns, status), counts, (chunk.num_rows, chunk.input_size)
     if chunk.lines is not None and not chunk.verbatim:
-        return csv_rows(chunk.lines, columns, status), counts, chunk
+        return csv_rows(chunk.lines, columns, status), counts, (chunk.num_rows, chunk.input_size)
     # Arrow's writer: for Parquet input it formats the typed columns; for a verbatim CSV chunk, unquoted, it
     # writes the very bytes csv_rows would (tests/test_differential.py), some 25% faster.
     options = pacsv.WriteOptions(include_header=False, quoting_style="none" if chunk.verbatim else "needed")
     sink = pa.BufferOutputStream()
     pacsv.write_csv(_output_table(chunk.table, columns, status), sink, options)
-    return sink.getvalue().to_pybytes(), counts, chunk
+    return sink.getvalue().to_pybytes(), counts, (chunk.num_rows, chunk.input_size)
 
 
 def _csv_output_header(source: Path, header: Header | None) -> bytes:
@@ -206,7 +206,7 @@ def stream_estimate(
 
     def write(job: Future) -> None:
         nonlocal writer, counts
-        output, chunk_counts, chunk = job.result()
+        output, chunk_counts, (rows, size) = job.result()
         if parquet is not None:
             writer = writer or pq.ParquetWriter(stream, output.schema)
             writer.write_table(output)
@@ -214,7 +214,7 @@ def stream_estimate(
             stream.write(output)
         counts += chunk_counts
         if on_chunk:
-            on_chunk(chunk.num_rows, chunk.input_size)
+            on_chunk(rows, size)
 
     with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
         try:
@@ -228,7 +228,7 @@ def stream_estimate(
                     chunk = job()
                     loads = _loads(chunk.values, chunk.malformed, lowpass)
                     pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet))
-                while len(pending) > WORKERS:
+                while len(pending) >= WORKERS:
                     write(pending.popleft())
             while pending:
                 write(pending.popleft())
