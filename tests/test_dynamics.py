@@ -251,3 +251,32 @@ def test_gravity_coefficients_are_linear_in_gravity():
     np.testing.assert_allclose(gravity_coefficients(ARM, params, g1 + 2 * g2),
                                gravity_coefficients(ARM, params, g1) + 2 * gravity_coefficients(ARM, params, g2),
                                rtol=1e-12, atol=1e-14)  # fmt: skip
+
+
+def test_prior_from_the_robot_file(tmp_path):
+    """Uniform bars: l3's mass, first moment and inertia in closed form, the handle on top; outer parts split at the cell."""
+    from sailforce.dynamics import inertial_parameters
+    from sailforce.robotfile import load_robot_file
+
+    (tmp_path / "r.toml").write_text(
+        "[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[handle]\nmass = 1.0\nposition = 1.0\n"
+        "[plane]\ntilt_deg = 5\naxis_deg = -90\n"
+    )
+    robot = load_robot_file(tmp_path / "r.toml").robot
+    params = inertial_parameters(robot)
+    section, rho = robot.link_section, robot.link_material.rho
+    lam = rho * section.depth * section.thickness
+    m3 = lam * 0.45
+    assert params.l3.m == pytest.approx(m3 + 1.0, rel=1e-12)
+    assert params.l3.hx == pytest.approx(m3 * 0.225 + 1.0 * 0.45, rel=1e-12)
+    assert params.l3.I == pytest.approx(m3 * (0.45**2 / 3 + section.depth**2 / 12) + 0.45**2, rel=1e-12)
+    cell = robot.loadcell
+    cell_mass = cell.material.rho * cell.block.depth * cell.block.thickness * cell.length / 2
+    assert params.outer1.m == pytest.approx(cell_mass + lam * (0.1 - cell.length / 2), rel=1e-12)
+    gx, gy = robot.plane.gravity
+    assert gx == pytest.approx(0.0, abs=1e-15) and gy == pytest.approx(-9.80665 * np.sin(np.radians(5)), rel=1e-12)
+    # at rest with the links along +x, gravity along -y loads each cell with docs/dynamics.md's combination
+    coefficients = gravity_coefficients(robot.arm, params, robot.plane.gravity)
+    expected = [(params.outer1.m + params.l4.m + params.l3.hx / 0.2) * gy, 0.0,
+                (params.outer2.m + params.l3.m + params.l4.hx / 0.3) * gy, 0.0]  # fmt: skip
+    np.testing.assert_allclose(coefficients, expected, rtol=1e-12, atol=1e-12)

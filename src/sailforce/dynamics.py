@@ -271,3 +271,25 @@ def base_parameters(arm: Links, *, samples: int = 2000, seed: int = 0) -> BasePa
     K[np.abs(K) < 1e-12] = 0.0
     order = np.argsort(independent)
     return BaseParameters(tuple(int(i) for i in independent[order]), K[order])
+
+
+def inertial_parameters(robot) -> InertialParameters:
+    """The robot file's prior: uniform bars of the links' and cells' sections and densities, and the handle.
+
+    ``outer_i`` is half the cell block from the cell's centre, then the link
+    to its far end; l4 and l3 are whole links; the handle is a point mass on
+    l3.  Joint hardware is not modelled: identify the real values from a
+    free-motion recording (``sail calibrate --free-motion``).
+    """
+    arm, cell, section = robot.arm, robot.loadcell, robot.link_section
+    link_density = robot.link_material.rho * section.depth * section.thickness
+    cell_density = cell.material.rho * cell.block.depth * cell.block.thickness
+
+    def outer(length: float) -> BodyInertia:
+        centre = cell.position * length
+        return (bar(centre, centre + cell.length / 2, cell_density, cell.block.depth)
+                + bar(centre + cell.length / 2, length, link_density, section.depth))  # fmt: skip
+
+    handle = point_mass(robot.handle.mass, robot.handle.position * arm.l3)
+    return InertialParameters(outer(arm.l1), outer(arm.l2), bar(0.0, arm.l2, link_density, section.depth),
+                              bar(0.0, arm.l3, link_density, section.depth) + handle)  # fmt: skip

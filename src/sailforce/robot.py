@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 
 from .arm import Arm
 from .errors import GeometryError
-from .loadcell import LoadCell
+from .loadcell import STANDARD_GRAVITY, LoadCell
 from .materials import CARBON_STEEL, Material, RectangularSection
 
 JOINT_MODELS = ("pin", "bonded", "spring")
@@ -58,6 +58,41 @@ class Motors:
 
 
 @dataclass(frozen=True)
+class Handle:
+    """What the patient holds at A: a point mass on l3 (issue 11)."""
+
+    mass: float = 0.0  #: [kg]
+    position: float = 1.0  #: along l3 from P2, as a fraction of l3 (1 = at A)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.mass) and self.mass >= 0):
+            raise GeometryError(f"handle mass = {self.mass!r} kg must be a non-negative number")
+        if not (math.isfinite(self.position) and 0.0 <= self.position <= 1.0):
+            raise GeometryError(f"handle position = {self.position!r} must lie between 0 (at P2) and 1 (at A)")
+
+
+@dataclass(frozen=True)
+class Plane:
+    """The plane the arm moves in: tilted from horizontal, gravity has a component in it (issue 11)."""
+
+    tilt_deg: float = 0.0  #: [deg] angle between the arm's plane and the horizontal
+    axis_deg: float = -90.0  #: [deg] direction in the plane, CCW from +x, in which that component points
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.tilt_deg) and 0.0 <= self.tilt_deg <= 90.0):
+            raise GeometryError(f"plane tilt_deg = {self.tilt_deg!r} must lie between 0 and 90")
+        if not math.isfinite(self.axis_deg):
+            raise GeometryError(f"plane axis_deg = {self.axis_deg!r} must be finite")
+
+    @property
+    def gravity(self) -> tuple[float, float]:
+        """The in-plane gravity vector [m/s^2]: g sin(tilt) along the axis."""
+        magnitude = STANDARD_GRAVITY * math.sin(math.radians(self.tilt_deg))
+        axis = math.radians(self.axis_deg)
+        return magnitude * math.cos(axis), magnitude * math.sin(axis)
+
+
+@dataclass(frozen=True)
 class Robot:
     """A SAIL arm as a structure.
 
@@ -71,6 +106,8 @@ class Robot:
     loadcell: LoadCell = field(default_factory=LoadCell)
     joints: Joints = field(default_factory=Joints)
     motors: Motors = field(default_factory=Motors)
+    handle: Handle = field(default_factory=Handle)
+    plane: Plane = field(default_factory=Plane)
 
     def __post_init__(self) -> None:
         cell = self.loadcell

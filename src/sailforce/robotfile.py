@@ -32,6 +32,8 @@ SECTIONS = {
     "loadcells": LOADCELL_KEYS,
     "joints": ("model", "stiffness"),
     "motors": ("model", "stiffness"),
+    "handle": ("mass", "position"),
+    "plane": ("tilt_deg", "axis_deg"),
 }
 KNOWN_SECTIONS = tuple(SECTIONS)
 
@@ -92,6 +94,14 @@ stiffness = {joint_k:g}    # N m/rad, used by "spring"
 [motors]            # the motors at B
 model = "{motors}"    # "locked" (clamped) or "gearbox" (torsional spring to ground)
 stiffness = {motor_k:g}    # N m/rad, used by "gearbox"
+
+[handle]            # what the patient holds at A; its inertia loads the cells while the arm moves
+mass = {handle_mass:g}            # kg
+position = {handle_position:g}        # along l3 from P2, as a fraction of l3 (1 = at A)
+
+[plane]             # the plane of motion; tilted, gravity has a component in it that loads the cells
+tilt_deg = {tilt:g}        # angle from horizontal
+axis_deg = {axis:g}      # direction in the plane (CCW from +x) that the in-plane gravity points to
 """
 
 
@@ -120,6 +130,7 @@ def template(robot: Robot | None = None) -> str:
         position=cell.position, cell_depth=cell.block.depth, cell_thickness=cell.block.thickness,
         rated_output=cell.rated_output_mV_V, xa=cell.crosstalk_axial, xm=cell.crosstalk_moment,
         joints=r.joints.model, joint_k=r.joints.stiffness, motors=r.motors.model, motor_k=r.motors.stiffness,
+        handle_mass=r.handle.mass, handle_position=r.handle.position, tilt=r.plane.tilt_deg, axis=r.plane.axis_deg,
     )  # fmt: skip
 
 
@@ -189,6 +200,8 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
     cells = _table(path, data, "loadcells")
     joints = _table(path, data, "joints")
     motors = _table(path, data, "motors")
+    handle = _table(path, data, "handle")
+    plane = _table(path, data, "plane")
     for name, table in (("joints", joints), ("motors", motors)):
         if "model" in table and not isinstance(table["model"], str):
             raise RobotFileError(f"{path}: [{name}] model = {table['model']!r}: expected a quoted name")
@@ -207,6 +220,8 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
         ),
         joints=replace(default.joints, **joints),
         motors=replace(default.motors, **motors),
+        handle=replace(default.handle, **handle),
+        plane=replace(default.plane, **plane),
     )
 
 

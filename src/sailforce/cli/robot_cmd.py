@@ -11,7 +11,7 @@ from rich.table import Table
 
 from ..robotfile import write_template
 from . import cli
-from ._options import load_arm, robot_option
+from ._options import load_robot, robot_option
 
 
 @cli.group()
@@ -31,8 +31,9 @@ def robot_init(file: Path, force: bool) -> None:
 @robot.command("show")
 @robot_option
 def robot_show(robot_path: Path | None) -> None:
-    """Print the arm's geometry and reach."""
-    arm = load_arm(robot_path)
+    """Print the arm's geometry and reach, and the inertial parameters of the bodies beyond the cells."""
+    robot_ = load_robot(robot_path)
+    arm = robot_.arm
     table = Table(title=f"robot: {robot_path or 'built-in default'}", show_header=True)
     table.add_column("quantity")
     table.add_column("value", justify="right")
@@ -41,4 +42,30 @@ def robot_show(robot_path: Path | None) -> None:
     inner, outer = arm.reach
     table.add_row("reach (annulus)", f"{inner:.4f} m .. {outer:.4f} m")
     table.add_row("cond(J) at delta = 90 deg (best)", f"{float(arm.condition(math.pi / 2, 0.0)):.3f}")
-    Console().print(table)
+    console = Console()
+    console.print(table)
+    _print_inertia(console, robot_)
+
+
+def _print_inertia(console: Console, robot_) -> None:
+    from ..dynamics import BODIES, base_parameters, inertial_parameters, parameter_vector
+
+    params = inertial_parameters(robot_)
+    table = Table(title="inertial parameters beyond the cells (prior from sections, densities and the handle)")
+    for head in ("body", "about", "m [kg]", "hx [kg m]", "hy [kg m]", "I [kg m²]"):
+        table.add_column(head, justify="left" if head in ("body", "about") else "right")
+    for body, about in zip(BODIES, ("B", "B", "P1", "P2")):
+        b = getattr(params, body)
+        table.add_row(body, about, f"{b.m:.4g}", f"{b.hx:.4g}", f"{b.hy:.4g}", f"{b.I:.4g}")
+    console.print(table)
+    gx, gy = (v + 0.0 for v in robot_.plane.gravity)  # no "-0"
+    console.print(f"in-plane gravity ({robot_.plane.tilt_deg:g}° tilt): ({gx:.4g}, {gy:.4g}) m/s²; "
+                  f"handle {robot_.handle.mass:g} kg at {robot_.handle.position:g} l3 from P2", highlight=False)  # fmt: skip
+    base = base_parameters(robot_.arm)
+    values = base.of(parameter_vector(robot_.arm, params, robot_.plane.gravity))
+    table = Table(title="the base parameters the cells can see (docs/dynamics.md)")
+    table.add_column("base parameter")
+    table.add_column("value", justify="right")
+    for name, value in zip(base.names, values):
+        table.add_row(name, f"{value:.5g}")
+    console.print(table)
