@@ -10,10 +10,14 @@ Statuses (the same codes as libsail's ``enum``):
 - ``EXTRAPOLATED`` (3): delta lies outside the calibrated range (by more
   than :data:`DELTA_RANGE_SLACK`); the estimate is given;
 - ``INVALID`` (4): a field is NaN or infinite (or, in files, missing or not a
-  number); no estimate.
+  number); no estimate;
+- ``MOTION_UNKNOWN`` (5): with a dynamic term (:mod:`sailforce.inertial`),
+  the joint rates are not known yet (the first half window of a recording,
+  around a gap), so the inertial load cannot be subtracted; no estimate.
+  Appended after the static codes, whose numbers stay as they were.
 
 When several apply, the first in the order INVALID, SINGULAR, SATURATED,
-EXTRAPOLATED wins.
+MOTION_UNKNOWN, EXTRAPOLATED wins.
 """
 
 from __future__ import annotations
@@ -27,8 +31,8 @@ from .compensation import solve_sensing, torque_entries
 from .kinematics import sin_delta_from_trig
 from .statics import is_singular
 
-OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID = range(5)
-STATUS_NAMES = ("ok", "singular", "saturated", "extrapolated", "invalid")
+OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID, MOTION_UNKNOWN = range(6)
+STATUS_NAMES = ("ok", "singular", "saturated", "extrapolated", "invalid", "motion-unknown")
 
 #: Delta may leave the calibrated range by this much [rad] before the estimate
 #: counts as extrapolated: 0.01 deg, below encoder resolution of a held pose.
