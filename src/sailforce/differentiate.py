@@ -10,7 +10,8 @@ Savitzky-Golay filter; on irregular sampling the fit uses the real times.
 3 m/s^2, 1 kHz, 16-bit encoders; ``docs/dynamics.md``), the acceleration
 error was 0.049 rad/s^2 RMS for a 0.1 s window of order 4, against 0.052
 for central differences after a 20 Hz Butterworth filtfilt and 0.069-0.078
-for the other windows tried (21 to 151 samples, orders 2 to 4).  A window
+for the other windows tried (21 to 151 samples, orders 2 to 4), as
+``bench/choose_differentiator.py`` prints.  A window
 fit, unlike a recursive filter, has a causal twin with the very same output.
 
 **Live use.**  The causal twin (:class:`CausalDifferentiator`) fits the
