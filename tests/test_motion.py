@@ -137,3 +137,39 @@ def test_too_little_excitation_is_refused(session):
     loads = np.repeat(free.loads[still][:1], n, axis=0)
     with pytest.raises(MotionDataError, match="too little excitation"):
         fit_dynamic_term(cal, t, theta[:, 0], theta[:, 1], loads[:, 0], loads[:, 1])
+
+
+def test_calibrate_free_motion_end_to_end(session, tmp_path):
+    """`sail calibrate STATIC --free-motion FREE` stores the identified term; the file round-trips; t_s is required."""
+    from click.testing import CliRunner
+
+    from sailforce.cli import cli
+
+    robot, _, free, _ = session
+    t1, t2, fx, fy, counts, _ = calibration_session(robot)
+    static = ["theta1_deg,theta2_deg,load1,load2,fx_N,fy_N"] + [
+        f"{np.degrees(a):.12g},{np.degrees(b):.12g},{c:.0f},{d:.0f},{e:.12g},{f:.12g}"
+        for a, b, c, d, e, f in zip(t1, t2, counts[:, 0], counts[:, 1], fx, fy)]  # fmt: skip
+    (tmp_path / "static.csv").write_text("\n".join(static) + "\n")
+    (tmp_path / "r.toml").write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[handle]\nmass = 1.0\n"
+                                     "[plane]\ntilt_deg = 3\n")  # fmt: skip
+    rows = ["t_s,theta1_deg,theta2_deg,load1,load2"] + [
+        f"{t:.6f},{np.degrees(a):.12g},{np.degrees(b):.12g},{c:.0f},{d:.0f}"
+        for t, (a, b), (c, d) in zip(free.t, free.theta, free.loads)]  # fmt: skip
+    (tmp_path / "free.csv").write_text("\n".join(rows) + "\n")
+    run = CliRunner().invoke
+    result = run(cli, ["calibrate", str(tmp_path / "static.csv"), "--robot", str(tmp_path / "r.toml"), "--model", "matrix",
+                       "--free-motion", str(tmp_path / "free.csv"), "-o", str(tmp_path / "cal.json")])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "dynamic fit" in result.output
+    cal = Calibration.load(tmp_path / "cal.json")
+    assert cal.dynamics_source == "free-motion" and len(cal.dynamics.values) == 10
+    truth = base_parameters(robot.arm).of(parameter_vector(robot.arm, inertial_parameters(robot), robot.plane.gravity))
+    np.testing.assert_allclose(cal.dynamics.values, truth, rtol=BASE_PARAMETER_RTOL, atol=0.02)
+    prior = run(cli, ["calibrate", str(tmp_path / "static.csv"), "--robot", str(tmp_path / "r.toml"), "--dynamics", "prior",
+                      "-o", str(tmp_path / "prior.json")])  # fmt: skip
+    assert prior.exit_code == 0 and Calibration.load(tmp_path / "prior.json").dynamics_source == "prior"
+    (tmp_path / "no_t.csv").write_text("\n".join(r.split(",", 1)[1] for r in rows) + "\n")
+    missing = run(cli, ["calibrate", str(tmp_path / "static.csv"), "--free-motion", str(tmp_path / "no_t.csv"),
+                        "-o", str(tmp_path / "x.json")])  # fmt: skip
+    assert missing.exit_code == 1 and "t_s" in missing.output and not (tmp_path / "x.json").exists()

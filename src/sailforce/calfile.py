@@ -11,6 +11,11 @@ File format (``schema_version`` 1), one JSON object:
   ``{"kind": "seed", "amplitude": [p1, p2], "phase_deg": [p1, p2]}``, each p a list of
   coefficients, highest power first, in delta [deg];
 - ``metrics``: fit and cross-validated RMSE [N], sample and delta counts;
+- ``dynamics`` (optional): the dynamic term of :mod:`sailforce.inertial`,
+  ``{"columns": [names], "values": [..], "combinations": [..], "differentiator":
+  {"window_s": .., "order": ..}, "source": "free-motion" | "prior"}``: base
+  parameters [SI] in representative columns of :data:`sailforce.dynamics.PARAMETERS`
+  (``combinations`` spells out what each stands for, for people);
 - ``checksum``: SHA-256 of the canonical JSON (sorted keys, compact) of everything else.
 
 It is written atomically.  Loading validates every field and the checksum
@@ -31,6 +36,9 @@ import numpy as np
 from . import __version__
 from .arm import Arm
 from .compensation import AmplitudePhaseCompensator, MatrixCompensator
+from .differentiate import Differentiator
+from .dynamics import PARAMETERS
+from .inertial import DynamicTerm
 from .errors import GeometryError, SailError
 from .estimator import estimate
 from .io import atomic_writer
@@ -70,6 +78,8 @@ class Calibration:
     data_sha256: str = ""
     created: str = ""
     software: str = f"sailforce {__version__}"
+    dynamics: DynamicTerm | None = None  #: the inertial and gravity loads to subtract while moving
+    dynamics_source: str = ""  #: "free-motion" (identified) or "prior" (from the robot file)
 
     @property
     def kind(self) -> str:
@@ -106,6 +116,8 @@ class Calibration:
             "model": _model_dict(self.model),
             "metrics": self.metrics,
         }
+        if self.dynamics is not None:
+            content["dynamics"] = _dynamics_dict(self.dynamics, self.dynamics_source)
         content["checksum"] = checksum(content)
         return content
 
@@ -172,10 +184,12 @@ class Calibration:
         load_range = tuple(_pair({"r": r}, "r", fail) for r in load_range)
         model = _model_from(data["model"], arm, delta_range, fail)
         units = data["units"]
+        dynamics = _dynamics_from(data["dynamics"], fail) if "dynamics" in data else None
         return cls(arm, model, offsets, capacity, delta_range, load_range,
                    str(units.get("load", "raw")) if isinstance(units, dict) else "raw",
                    data["metrics"] if isinstance(data["metrics"], dict) else {},
-                   str(data["data_sha256"]), str(data["created"]), str(data["software"]))  # fmt: skip
+                   str(data["data_sha256"]), str(data["created"]), str(data["software"]), dynamics,
+                   str(data["dynamics"].get("source", "")) if dynamics else "")  # fmt: skip
 
 
 def _finite(text: str) -> float:
@@ -210,6 +224,33 @@ def _pair(data: dict, key: str, fail) -> tuple[float, float]:
         return (_number(value, 0), _number(value, 1))
     except TypeError:
         fail(f"{key} = {value!r}: expected two finite numbers")
+
+
+def _dynamics_dict(term: DynamicTerm, source: str) -> dict:
+    return {"columns": list(term.names), "values": list(term.values), "combinations": list(term.combinations),
+            "differentiator": {"window_s": term.differentiator.window_s, "order": term.differentiator.order},
+            "source": source}  # fmt: skip
+
+
+def _dynamics_from(data: object, fail) -> DynamicTerm:
+    if not isinstance(data, dict):
+        fail("dynamics must be an object")
+    columns, values = data.get("columns"), data.get("values")
+    if not (isinstance(columns, list) and isinstance(values, list) and len(columns) == len(values) and columns):
+        fail("dynamics.columns and dynamics.values must be lists of equal length")
+    unknown = [c for c in columns if c not in PARAMETERS]
+    if unknown:
+        fail(f"dynamics.columns: unknown parameter(s) {', '.join(map(str, unknown))}")
+    try:
+        numbers = [_number(values, i) for i in range(len(values))]
+        spec = data.get("differentiator", {})
+        differentiator = Differentiator(_number(spec, "window_s"), int(_number(spec, "order")))
+    except (TypeError, KeyError, SailError) as exc:
+        fail(f"dynamics: {exc}")
+    combinations = data.get("combinations", [])
+    if not (isinstance(combinations, list) and all(isinstance(c, str) for c in combinations)):
+        fail("dynamics.combinations must be a list of text")
+    return DynamicTerm(tuple(PARAMETERS.index(c) for c in columns), tuple(numbers), differentiator, tuple(combinations))
 
 
 def _model_dict(model) -> dict:

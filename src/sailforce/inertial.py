@@ -21,12 +21,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compensation import solve_sensing, torque_entries
-from .differentiate import Differentiator, MotionDataError, derivatives
+from .differentiate import Differentiator, MotionDataError, derivatives, sampling_period
 from .dynamics import PARAMETERS, base_parameters, shear_regressor
 
 #: Largest condition number of the (column-scaled) identification problem: beyond it some base parameter
 #: is barely excited, and its estimate is noise.  Measured: a session of 8 reaches in 8 directions gives ~30.
 MAX_CONDITION = 1e3
+
+#: The rate fit needs this many more samples in its window than its polynomial has coefficients minus one,
+#: or it follows the encoder quantization instead of the motion.
+MIN_WINDOW_MARGIN = 3
 
 #: Contiguous blocks of the recording left out in turn for the cross-validated residual.
 CV_FOLDS = 5
@@ -39,6 +43,7 @@ class DynamicTerm:
     columns: tuple[int, ...]
     values: tuple[float, ...]
     differentiator: Differentiator = Differentiator()
+    combinations: tuple[str, ...] = ()  #: what each value stands for, e.g. ``l4.hx + 1.5 l3.hx`` (for people)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -91,6 +96,13 @@ def fit_dynamic_term(cal, t, theta1, theta2, load1, load2, *, differentiator: Di
     """
     arm = cal.arm
     q = np.column_stack([theta1, theta2]).astype(float)
+    dt = sampling_period(np.asarray(t, float))
+    if differentiator.window(dt) < differentiator.order + MIN_WINDOW_MARGIN:
+        raise MotionDataError(
+            f"sampling at {1 / dt:.3g} Hz leaves {differentiator.window(dt)} samples in the {differentiator.window_s:g} s "
+            f"window that rates are fitted over; record at {(differentiator.order + MIN_WINDOW_MARGIN) / differentiator.window_s:.3g} Hz "
+            "or faster"
+        )
     qd, qdd = derivatives(t, q, differentiator)
     loads = np.column_stack([load1, load2]).astype(float) - np.asarray(cal.offsets)
     known = np.all(np.isfinite(qd) & np.isfinite(qdd) & np.isfinite(loads) & np.isfinite(q), axis=1)
@@ -122,7 +134,7 @@ def fit_dynamic_term(cal, t, theta1, theta2, load1, load2, *, differentiator: Di
         train_rows = A[~test].reshape(-1, A.shape[-1])
         b = np.linalg.lstsq(train_rows / scale, loads[~test].reshape(-1), rcond=None)[0] / scale
         cv.append(_force_rmse(cal, q[test], loads[test] - A[test] @ b) ** 2)
-    term = DynamicTerm(base.columns, tuple(float(v) for v in beta), differentiator)
+    term = DynamicTerm(base.columns, tuple(float(v) for v in beta), differentiator, base.names)
     return DynamicFit(term, rmse, float(np.sqrt(np.mean(cv))), condition, n, base.names)
 
 
@@ -155,3 +167,12 @@ def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2):
     fx[unknown] = np.nan
     fy[unknown] = np.nan
     return fx, fy, status, inertial
+
+
+def prior_term(robot, differentiator: Differentiator = Differentiator()) -> DynamicTerm:
+    """The dynamic term the robot file predicts (sections, densities, cells, handle, tilt), unidentified."""
+    from .dynamics import inertial_parameters, parameter_vector
+
+    base = base_parameters(robot.arm)
+    values = base.of(parameter_vector(robot.arm, inertial_parameters(robot), robot.plane.gravity))
+    return DynamicTerm(base.columns, tuple(float(v) for v in values), differentiator, base.names)

@@ -44,16 +44,23 @@ def recording(robot: Robot, theta1, theta2, fx, fy, *, noise: NoiseModel = Noise
     """
     rng = np.random.default_rng(seed)
     theta1, theta2, fx, fy = np.broadcast_arrays(*(np.asarray(a, float) for a in (theta1, theta2, fx, fy)))
+    if offsets is None:
+        offsets = session_offsets(robot, noise, seed)
     unit = simulate_model(build_model(robot), theta1, theta2).signal("bridge")  # (n, 2, 2) mV/V per N
     signal = (unit @ np.stack([fx, fy], axis=-1)[..., None])[..., 0]  # mV/V
     rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
-    if offsets is None:
-        offsets = rng.uniform(-1, 1, 2) * noise.offset_fraction * rated
+    rng.uniform(-1, 1, 2)  # the draw that once made the offsets: keeps the noise of every seed as it was
     clean = offsets + signal * HX711_COUNTS_PER_MV_V
     counts = clean + rng.normal(0.0, noise.noise_fraction * rated, clean.shape)
     if noise.quantize:
         counts = np.round(counts)
     return counts, np.asarray(offsets, float), clean
+
+
+def session_offsets(robot: Robot, noise: NoiseModel, seed: int) -> np.ndarray:
+    """The cells' zero offsets [counts] of the simulated rig numbered ``seed``: the same in every recording made with it."""
+    rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
+    return np.random.default_rng(seed).uniform(-1, 1, 2) * noise.offset_fraction * rated
 
 
 def calibration_session(robot: Robot, *, seed: int = 1, step_deg: float = 7.5, directions: int = 12,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -14,7 +15,7 @@ from ..calfile import Calibration
 from ..calibration import MODEL_KINDS, equivalent_capacity, fit_calibration
 from ..errors import SailError
 from ..io import check_output
-from ..tables import READING_COLUMNS, REFERENCE_COLUMNS, read_all
+from ..tables import READING_COLUMNS, REFERENCE_COLUMNS, TableError, read_all
 from . import cli
 from ._options import load_robot, robot_option
 
@@ -86,7 +87,12 @@ def _parse_capacity(ctx, param, value):
 @click.option("--capacity", callback=_parse_capacity, default=None, metavar="RAW1,RAW2",
               help="Raw reading (offset removed) at each cell's capacity. Default: estimated from the robot's load-cell rating.")
 @click.option("--load-unit", default="raw", show_default=True, help="Label of the load columns' unit, stored in the file.")
-def calibrate_command(data, robot_path, output, kind, capacity, load_unit):
+@click.option("--free-motion", "free_motion", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              metavar="FREE.csv", help="The motors moving the arm with nobody holding the handle (t_s, theta1_deg, "
+              "theta2_deg, load1, load2): identifies the inertial and gravity loads to subtract while moving.")
+@click.option("--dynamics", type=click.Choice(("prior", "none")), default=None,
+              help="Without --free-motion: store the robot file's predicted dynamic term, or none (the default).")
+def calibrate_command(data, robot_path, output, kind, capacity, load_unit, free_motion, dynamics):
     """Fit offsets and the sensing map from DATA.csv (or .parquet) with reference forces.
 
     DATA has the columns theta1_deg, theta2_deg, load1, load2 (raw readings
@@ -95,7 +101,9 @@ def calibrate_command(data, robot_path, output, kind, capacity, load_unit):
     spanning the Δ = θ1 − θ2 range the robot will use.
     """
     robot = load_robot(robot_path)
-    check_output(output, {"the calibration data": data, "the --robot file": robot_path})
+    check_output(output, {"the calibration data": data, "the --robot file": robot_path, "the --free-motion recording": free_motion})
+    if free_motion is not None and dynamics is not None:
+        raise click.UsageError("--dynamics chooses a dynamic term without --free-motion; give one or the other")
     values = _clean_rows(data, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
     model, offsets, report = fit_calibration(robot.arm, theta1, theta2, values["fx_N"], values["fy_N"],
@@ -110,14 +118,49 @@ def calibrate_command(data, robot_path, output, kind, capacity, load_unit):
          "n_samples": report.n_samples, "n_deltas": report.n_deltas, "model_selection": kind},
         _sha256(data),
     )  # fmt: skip
-    cal.save(output)
     console = Console()
+    if free_motion is not None:
+        cal = _identify(console, cal, robot, free_motion)
+    elif dynamics == "prior":
+        from ..inertial import prior_term
+
+        cal = replace(cal, dynamics=prior_term(robot), dynamics_source="prior")
+    cal.save(output)
     low, high = np.degrees(report.delta_range)
     scores = ", ".join(f"{k} {v:.4g} N" for k, v in report.cv_rmse_by_kind.items())
     console.print(f"wrote {output}: model [bold]{report.kind}[/bold] from {report.n_samples} samples at "
                   f"{report.n_deltas} Δ values, Δ = {low:.4g}…{high:.4g}°")  # fmt: skip
     console.print(f"force RMSE: fit {report.fit_rmse_N:.4g} N, cross-validated {report.cv_rmse_N:.4g} N ({scores})")
     console.print(f"offsets {offsets[0]:.6g}, {offsets[1]:.6g} {load_unit}; capacity ±{capacity[0]:.4g}, ±{capacity[1]:.4g} {load_unit}")
+
+
+def _identify(console: Console, cal: Calibration, robot, free_motion: Path) -> Calibration:
+    """The dynamic term from a free-motion recording, on top of the static calibration ``cal``."""
+    from rich.table import Table
+
+    from ..inertial import fit_dynamic_term, prior_term
+
+    try:
+        values = _clean_rows(free_motion, ("t_s",) + READING_COLUMNS, "A free-motion recording")
+    except TableError as exc:
+        if "missing column(s) t_s" in str(exc):
+            raise TableError(f"{exc}. A free-motion recording needs t_s, the time of each sample [s], to derive "
+                             "the joint rates: record it with the readings") from None  # fmt: skip
+        raise
+    fit = fit_dynamic_term(cal, values["t_s"], np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"]),
+                           values["load1"], values["load2"])  # fmt: skip
+    prior = prior_term(robot)
+    table = Table(title=f"dynamic term from {free_motion}: base parameters [SI] (docs/dynamics.md)")
+    for head in ("base parameter", "identified", "robot-file prior"):
+        table.add_column(head, justify="left" if head == "base parameter" else "right")
+    for name, value, expected in zip(fit.term.combinations, fit.term.values, prior.values):
+        table.add_row(name, f"{value:.5g}", f"{expected:.5g}")
+    console.print(table)
+    console.print(f"dynamic fit: residual {fit.rmse_N:.4g} N, cross-validated by blocks {fit.cv_rmse_N:.4g} N, "
+                  f"condition number {fit.condition:.3g}, {fit.samples} samples", highlight=False)  # fmt: skip
+    metrics = {**cal.metrics, "dynamics_rmse_N": fit.rmse_N, "dynamics_cv_rmse_N": fit.cv_rmse_N,
+               "dynamics_condition": fit.condition, "dynamics_samples": fit.samples}  # fmt: skip
+    return replace(cal, dynamics=fit.term, dynamics_source="free-motion", metrics=metrics)
 
 
 @cli.command("tare")
