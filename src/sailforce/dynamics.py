@@ -223,8 +223,8 @@ class BaseParameters:
         for row in self.K:
             terms = [f"{'+' if c > 0 else '-'} {'' if np.isclose(abs(c), 1.0) else f'{abs(c):.6g} '}{PARAMETERS[j]}"
                      for j, c in enumerate(row) if abs(c) > 1e-12]  # fmt: skip
-            out.append(" ".join(terms).removeprefix("+ ").replace("- ", "-", 1) if terms[0].startswith("-") else
-                       " ".join(terms).removeprefix("+ "))  # fmt: skip
+            text = " ".join(terms)
+            out.append(text[2:] if text.startswith("+ ") else "-" + text[2:])
         return tuple(out)
 
     def of(self, pi) -> np.ndarray:
