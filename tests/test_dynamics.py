@@ -17,6 +17,7 @@ from sailforce.dynamics import (
     PARAMETERS,
     BodyInertia,
     InertialParameters,
+    ShearModel,
     base_parameters,
     cell_shears,
     gravity_coefficients,
@@ -68,6 +69,18 @@ def test_regressor_reproduces_newton_euler():
     v = Y @ parameter_vector(ARM, params, gravity)
     np.testing.assert_allclose(v[:, 0], v1, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(v[:, 1], v2, rtol=1e-12, atol=1e-12)
+
+
+def test_closed_form_shears_equal_the_regressor():
+    """The twelve coefficients libsail stores carry every parameter: equal to ``Y @ pi`` for any pi and motion."""
+    rng = np.random.default_rng(8)
+    pi = rng.normal(0, 1, len(PARAMETERS))
+    states = random_states(rng, 1000)
+    np.testing.assert_allclose(ShearModel.from_parameters(ARM, pi).shears(*states), shear_regressor(ARM, *states) @ pi,
+                               rtol=1e-12, atol=1e-12)  # fmt: skip
+    base = base_parameters(ARM)  # and the base parameters alone give the same model as the full vector
+    a, b = ShearModel.from_parameters(ARM, pi), ShearModel.from_parameters(ARM, base.full(base.of(pi)))
+    np.testing.assert_allclose(a.coefficients, b.coefficients, rtol=1e-12, atol=1e-12)
 
 
 def _bodies(params: InertialParameters, rng):

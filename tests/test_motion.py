@@ -12,7 +12,7 @@ import pytest
 
 from sailforce.calfile import Calibration
 from sailforce.calibration import fit_calibration
-from sailforce.differentiate import CausalDifferentiator, Differentiator, MotionDataError, derivatives
+from sailforce.differentiate import Differentiator, MotionDataError, RateTracker, derivatives
 from sailforce.dynamics import base_parameters, inertial_parameters, parameter_vector
 from sailforce.estimator import MOTION_UNKNOWN, OK
 from sailforce.inertial import estimate_moving, fit_dynamic_term
@@ -63,21 +63,45 @@ def test_differentiator_is_exact_on_polynomials(irregular):
     np.testing.assert_allclose(qdd[known], exact_qdd[known], rtol=1e-6, atol=1e-6)
 
 
-def test_gaps_restart_and_the_causal_twin_agrees():
+def test_gaps_restart_and_the_live_path_agrees():
     t = np.concatenate([np.arange(1000), np.arange(1050, 2000)]) * 1e-3  # 50 samples lost
     q = np.column_stack([np.sin(3 * t), np.cos(2 * t)])
     qd, qdd = derivatives(t, q)
     unknown = ~np.isfinite(qd[:, 0])
     assert unknown[:50].all() and unknown[950:1050].all() and unknown[-50:].all()
     assert not unknown[50:950].any() and not unknown[1050:-50].any()
-    causal = CausalDifferentiator(1e-3)
-    out = [causal.push(ti, qi) for ti, qi in zip(t, q)]
-    emitted = [(o[0], o[2], o[3]) for o in out if o is not None]
-    times = np.array([e[0] for e in emitted])
-    index = np.searchsorted(t, times)
-    assert causal.delay == 50 and len(emitted) == (~unknown).sum()
-    np.testing.assert_allclose(np.array([e[1] for e in emitted]), qd[index], rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(np.array([e[2] for e in emitted]), qdd[index], rtol=1e-10, atol=1e-10)
+    tracker = RateTracker()  # the period probed from the stream, samples pushed one at a time
+    rate, accel, emitted_at = [], [], []
+    for i, (ti, qi) in enumerate(zip(t, q)):
+        r, a = tracker.feed([ti], qi[None])
+        rate.append(r), accel.append(a), emitted_at.extend([i] * len(r))
+    r, a = tracker.finish()
+    rate, accel = np.concatenate(rate + [r]), np.concatenate(accel + [a])
+    assert tracker.delay() == 50 and rate.shape == q.shape
+    np.testing.assert_allclose(rate, qd, rtol=1e-12, atol=1e-12)  # NaN where unknown, in the same places
+    np.testing.assert_allclose(accel, qdd, rtol=1e-10, atol=1e-10)
+    emitted_at = np.array(emitted_at)  # the sample that completed each one's window
+    known = np.flatnonzero(~unknown)
+    assert np.all(emitted_at[known[known >= 64]] == known[known >= 64] + 50)  # after the period probe: half a window late
+    assert np.all(emitted_at[950:1000] == 1000)  # cut by the gap: decided by the first sample after it
+
+
+@pytest.mark.parametrize("block", [1, 7, 333, 5000])
+def test_blocks_of_any_size_give_one_pass(block):
+    rng = np.random.default_rng(4)
+    t = np.cumsum(rng.choice([1e-3, 1.0004e-3, 6e-3], 3000, p=[0.9, 0.098, 0.002]))  # jitter and a few gaps
+    q = np.column_stack([np.sin(3 * t), np.cos(2 * t)])
+    q[1234] = np.nan  # an invalid sample cuts the stream like a gap
+    t[2000] = t[1999]  # so does a repeated timestamp
+    tracker = RateTracker(dt=1e-3)
+    parts = [tracker.feed(t[i : i + block], q[i : i + block]) for i in range(0, t.size, block)] + [tracker.finish()]
+    rate = np.concatenate([p[0] for p in parts])
+    whole = RateTracker(dt=1e-3)
+    one = [whole.feed(t, q), whole.finish()]
+    expected = np.concatenate([p[0] for p in one])
+    np.testing.assert_allclose(rate, expected, rtol=1e-12, atol=1e-9)
+    assert np.isnan(rate[1234 - 50 : 1234 + 51]).all() and np.isnan(rate[1999 - 49 : 2000 + 50]).all()
+    assert np.isfinite(rate).sum() > 2000
 
 
 def test_differentiator_refusals():

@@ -15,22 +15,25 @@ tried (21 to 151 samples, orders 2 to 4), as ``bench/choose_differentiator.py``
 prints.  A window fit, unlike a recursive filter, has a causal twin with
 the very same output.
 
-**Live use.**  The causal twin (:class:`CausalDifferentiator`) fits the
-same window and so reports a sample's rate and acceleration
-:attr:`Differentiator.delay_samples` samples late (half a window); the loads
-are delayed by the same count, so the dynamic term and the loads stay
-aligned, and offline and live estimates agree sample for sample.
+**Blocks and live use.**  :class:`RateTracker` takes the samples in
+blocks of any size (file chunks, or one line at a time from a live stream)
+and gives each sample's values once half a window has followed it, from
+the same window: so a live stream gets the offline values
+:meth:`RateTracker.delay` samples (half a window, 50 ms at 1 kHz) late, and
+the loads are held back by the same count to stay aligned with them.
 
-**Gaps.**  A step in time longer than :data:`GAP_FACTOR` sampling periods
-(the median step) starts a new segment; a sample closer than half a window
-to a segment's start or end has no full window, so its motion is unknown
-(NaN), and callers mark it.
+**Gaps.**  A step in time that is not positive or is longer than
+:data:`GAP_FACTOR` sampling periods, or a sample whose time or angle is
+not a number, cuts the stream; a sample closer than half a window to a cut,
+or to the start or end, has no full window, so its motion is unknown (NaN),
+and callers mark it.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +49,13 @@ UNIFORM_RTOL = 1e-6
 
 #: Samples per block of the timestamp fit: its (block, window, order + 1) arrays stay ~10 MB.
 FIT_BLOCK = 4096
+
+#: Windows per block of the fixed-coefficient filter, run on :data:`THREADS` threads (numpy's loops release the GIL).
+UNIFORM_BLOCK = 1 << 16
+THREADS = min(2, os.cpu_count() or 1)
+
+#: Valid time steps whose median sets the sampling period of a stream whose rate is not given.
+PROBE_STEPS = 64
 
 
 class MotionDataError(SailError):
@@ -91,53 +101,178 @@ def sampling_period(t: np.ndarray) -> float:
     return float(np.median(steps))
 
 
-def segments(t: np.ndarray, dt: float) -> list[slice]:
-    """Runs of samples without a gap (a step over :data:`GAP_FACTOR` ``dt``)."""
-    breaks = np.flatnonzero(np.diff(t) > GAP_FACTOR * dt) + 1
-    edges = np.concatenate(([0], breaks, [t.size]))
-    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
-
-
-def derivatives(t, q, differentiator: Differentiator = Differentiator()) -> tuple[np.ndarray, np.ndarray]:
+def derivatives(t, q, differentiator: Differentiator = Differentiator(), *, dt: float | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Rates and accelerations of ``q`` ``(n, k)`` sampled at times ``t`` ``(n,)``; NaN where unknown.
 
     Zero-phase: each sample's values come from the window centred on it.
+    ``dt`` defaults to the median step, after checking that time increases.
     """
     t = np.asarray(t, float)
     q = np.asarray(q, float)
     if q.ndim == 1:
         q = q[:, None]
-    dt = sampling_period(t)
-    width = differentiator.window(dt)
-    half = width // 2
-    rate, accel = np.full(q.shape, np.nan), np.full(q.shape, np.nan)
-    for part in segments(t, dt):
-        n = part.stop - part.start
-        if n < width:
-            continue
-        ts, qs = t[part], q[part]
-        inner = slice(part.start + half, part.stop - half)
-        steps = np.diff(ts)
-        if np.all(np.abs(steps - dt) <= UNIFORM_RTOL * dt):
-            rate[inner], accel[inner] = _uniform(qs, dt, width, differentiator.order)
+    tracker = RateTracker(differentiator, sampling_period(t) if dt is None else dt)
+    parts = [tracker.feed(t, q), tracker.finish()]
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(2))  # type: ignore[return-value]
+
+
+class RateTracker:
+    """Rates and accelerations of a stream of samples fed in blocks of any size: the same numbers as one pass.
+
+    :meth:`feed` appends samples and returns ``(rate, acceleration)`` for
+    the next samples whose motion is decided: those whose window is complete
+    (known), or cut by a gap, an invalid sample or the start (unknown, NaN).
+    A sample is decided once half a window of samples has followed it, so a
+    stream fed one sample at a time gets each sample's values
+    :meth:`delay` samples late: the causal use, with the loads held back
+    by the same count.  :meth:`finish` decides the rest (unknown: the
+    recording ended).  Row counts add up: every sample fed comes out once,
+    in order.
+
+    A sample is invalid when its time or an angle is not finite; a step in
+    time that is not positive or longer than :data:`GAP_FACTOR` ``dt`` is a
+    gap.  ``dt`` None takes the median of the first :data:`PROBE_STEPS`
+    valid steps (samples wait until then).
+    """
+
+    def __init__(self, differentiator: Differentiator = Differentiator(), dt: float | None = None):
+        self.differentiator = differentiator
+        self.dt: float | None = None
+        self._t = np.empty(0)
+        self._q: np.ndarray | None = None
+        self._context = 0  # leading buffered samples already returned, kept as the next windows' start
+        if dt is not None:
+            self._set_period(dt)
+
+    def _set_period(self, dt: float) -> None:
+        if not (math.isfinite(dt) and dt > 0):
+            raise MotionDataError(f"sampling period {dt!r} s must be a positive time")
+        self.dt = float(dt)
+        self.width = self.differentiator.window(self.dt)
+
+    def delay(self) -> int:
+        """Samples between a sample's arrival and its values (half a window); needs the period."""
+        if self.dt is None:
+            raise MotionDataError("the sampling period is not known yet")
+        return self.width // 2
+
+    def feed(self, t, q) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(t, float).reshape(-1)
+        q = np.asarray(q, float).reshape(t.size, -1)
+        self._t = np.concatenate([self._t, t])
+        self._q = q if self._q is None else np.concatenate([self._q, q])
+        if self.dt is None:
+            steps = _valid_steps(self._t, self._q)
+            if steps.size < PROBE_STEPS:
+                return self._none()
+            self._set_period(float(np.median(steps[:PROBE_STEPS])))
+        return self._emit(final=False)
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray]:
+        """Values of every sample still held (those within half a window of the end are unknown)."""
+        if self._q is None:
+            return self._none()
+        if self.dt is None:
+            steps = _valid_steps(self._t, self._q)
+            if steps.size == 0:  # no two valid samples in a row: nothing can be differentiated
+                n, k = self._q.shape
+                self._t, self._q = np.empty(0), None
+                return np.full((n, k), np.nan), np.full((n, k), np.nan)
+            self._set_period(float(np.median(steps)))
+        return self._emit(final=True)
+
+    def _none(self) -> tuple[np.ndarray, np.ndarray]:
+        k = 0 if self._q is None else self._q.shape[1]
+        return np.empty((0, k)), np.empty((0, k))
+
+    def _emit(self, final: bool) -> tuple[np.ndarray, np.ndarray]:
+        t, q, dt, width = self._t, self._q, self.dt, self.width
+        half, m = width // 2, t.size
+        valid = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
+        steps = np.diff(t)
+        with np.errstate(invalid="ignore"):
+            linked = valid[1:] & valid[:-1] & (steps > 0) & (steps <= GAP_FACTOR * dt)
+        if final:
+            stop = m
         else:
-            rate[inner], accel[inner] = _timestamp_fit(ts, qs, width, differentiator.order)
+            breaks = np.flatnonzero(~linked)
+            stop = max(m - half, int(breaks[-1]) + 1 if breaks.size else 0)
+            if m and not valid[-1]:
+                stop = m
+        start = self._context
+        rate, accel = _window_fits(t, q, linked, dt, width, self.differentiator.order, start, stop)
+        keep = max(stop - half, 0)
+        self._t, self._q = t[keep:], q[keep:]
+        self._context = stop - keep
+        return rate, accel
+
+
+def _valid_steps(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    valid = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
+    steps = np.diff(t)[valid[1:] & valid[:-1]]
+    return steps[steps > 0]
+
+
+def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarray, np.ndarray]:
+    """Rates and accelerations of samples ``start:stop`` from their centred windows; NaN where a window is cut.
+
+    A window is known when its ``width - 1`` steps are all linked; the
+    fixed Savitzky-Golay coefficients apply where those steps are also all
+    within :data:`UNIFORM_RTOL` of ``dt``, the timestamp fit elsewhere.
+    Each sample's values depend on its window alone, so any split of a
+    stream into blocks gives the same numbers.
+    """
+    half = width // 2
+    n, k = stop - start, q.shape[1]
+    rate, accel = np.full((n, k), np.nan), np.full((n, k), np.nan)
+    centre = np.arange(start, stop)
+    inside = (centre - half >= 0) & (centre + half <= t.size - 1)
+    if not inside.any():
+        return rate, accel
+    cut = np.concatenate(([0], np.cumsum(~linked)))
+    uneven = np.concatenate(([0], np.cumsum(np.abs(np.diff(t) - dt) > UNIFORM_RTOL * dt)))  # NaN compares False
+    lo, hi = np.clip(centre - half, 0, t.size - 1), np.clip(centre + half, 0, t.size - 1)
+    known = inside & (cut[hi] - cut[lo] == 0)
+    uniform = known & (uneven[hi] - uneven[lo] == 0)
+    rows = np.flatnonzero(uniform)
+    if rows.size:
+        first, last = int(centre[rows[0]]), int(centre[rows[-1]])
+        r, a = _uniform(q[first - half : last + half + 1], dt, width, order)
+        rate[rows], accel[rows] = r[centre[rows] - first], a[centre[rows] - first]
+    rows = np.flatnonzero(known & ~uniform)
+    if rows.size:
+        rate[rows], accel[rows] = _timestamp_fit(t, q, centre[rows], width, order)
     return rate, accel
 
 
 def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Savitzky-Golay rate and acceleration of each full window of ``q``, in blocks on :data:`THREADS` threads."""
     from scipy.signal import savgol_coeffs
 
     windows = np.lib.stride_tricks.sliding_window_view(q, width, axis=0)  # (n - width + 1, k, width)
     first = savgol_coeffs(width, order, deriv=1, delta=dt, use="dot")
     second = savgol_coeffs(width, order, deriv=2, delta=dt, use="dot")
-    return windows @ first, windows @ second
+    rate, accel = np.empty(windows.shape[:2]), np.empty(windows.shape[:2])
+
+    def run(i: int) -> None:
+        block = windows[i : i + UNIFORM_BLOCK]
+        np.matmul(block, first, out=rate[i : i + UNIFORM_BLOCK])
+        np.matmul(block, second, out=accel[i : i + UNIFORM_BLOCK])
+
+    starts = range(0, windows.shape[0], UNIFORM_BLOCK)
+    if len(starts) > 1 and THREADS > 1:
+        with ThreadPoolExecutor(THREADS) as pool:
+            list(pool.map(run, starts))
+    else:
+        for i in starts:
+            run(i)
+    return rate, accel
 
 
-def _timestamp_fit(t: np.ndarray, q: np.ndarray, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:
+def _timestamp_fit(t: np.ndarray, q: np.ndarray, centres: np.ndarray, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares polynomial on each centred window's own timestamps; rate = c1, acceleration = 2 c2."""
     half = width // 2
-    centres = np.arange(half, t.size - half)
     rate, accel = np.empty((centres.size, q.shape[1])), np.empty((centres.size, q.shape[1]))
     offsets = np.arange(-half, half + 1)
     powers = np.arange(order + 1)
@@ -151,38 +286,3 @@ def _timestamp_fit(t: np.ndarray, q: np.ndarray, width: int, order: int) -> tupl
         rate[start : start + c.size] = coef[:, 1] / span[:, None]
         accel[start : start + c.size] = 2 * coef[:, 2] / span[:, None] ** 2
     return rate, accel
-
-
-class CausalDifferentiator:
-    """The live twin of :func:`derivatives`: push samples one by one, get each one's rate half a window later.
-
-    ``push(t, q)`` returns ``(t', q', rate, acceleration)`` for the sample
-    :meth:`delay` samples back, or None while the window fills.  A gap
-    restarts the window.  Its outputs equal :func:`derivatives`'s for the
-    same samples (uniform sampling at ``dt``).
-    """
-
-    def __init__(self, dt: float, differentiator: Differentiator = Differentiator()):
-        from scipy.signal import savgol_coeffs
-
-        self.dt = dt
-        self.width = differentiator.window(dt)
-        self.first = savgol_coeffs(self.width, differentiator.order, deriv=1, delta=dt, use="dot")
-        self.second = savgol_coeffs(self.width, differentiator.order, deriv=2, delta=dt, use="dot")
-        self.times: deque[float] = deque(maxlen=self.width)
-        self.values: deque[np.ndarray] = deque(maxlen=self.width)
-
-    @property
-    def delay(self) -> int:
-        return self.width // 2
-
-    def push(self, t: float, q) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
-        if self.times and t - self.times[-1] > GAP_FACTOR * self.dt:
-            self.times.clear()
-            self.values.clear()
-        self.times.append(t)
-        self.values.append(np.asarray(q, float))
-        if len(self.times) < self.width:
-            return None
-        window = np.array(self.values)  # (width, k)
-        return self.times[self.delay], window[self.delay], self.first @ window, self.second @ window

@@ -204,6 +204,50 @@ def shear_regressor(arm: Links, theta1, theta2, omega1, omega2, alpha1, alpha2) 
     return np.stack([np.stack(row1, axis=-1), np.stack(row2, axis=-1)], axis=-2)
 
 
+#: What each of :class:`ShearModel`'s six coefficients per cell multiplies.
+SHEAR_TERMS = ("alpha_own", "omega_own^2", "across_other", "along_other", "cos_own", "sin_own")
+
+
+@dataclass(frozen=True)
+class ShearModel:
+    """The dynamic shears in closed form: six coefficients per cell, grouped from a parameter vector.
+
+    With ``a = across``, ``b = along`` the other link's motion patterns of
+    :func:`shear_regressor` (``a2 = alpha2 cos d + omega2^2 sin d``,
+    ``b2 = -alpha2 sin d + omega2^2 cos d``, ``a1 = alpha1 cos d - omega1^2 sin d``,
+    ``b1 = alpha1 sin d + omega1^2 cos d``, ``d = theta1 - theta2``)::
+
+        V1 = k1[0] alpha1 + k1[1] omega1^2 + k1[2] a2 + k1[3] b2 + k1[4] cos theta1 + k1[5] sin theta1
+        V2 = k2[0] alpha2 + k2[1] omega2^2 + k2[2] a1 + k2[3] b1 + k2[4] cos theta2 + k2[5] sin theta2
+
+    which is ``Y @ pi`` with Y's entries collected term by term (Eqs. D1-D2;
+    ``tests/test_dynamics.py`` checks the identity).  Twelve numbers carry
+    every identifiable parameter: what libsail stores.
+    """
+
+    coefficients: tuple[tuple[float, ...], tuple[float, ...]]  #: (2, 6) in :data:`SHEAR_TERMS` order [N per unit]
+
+    @classmethod
+    def from_parameters(cls, arm: Links, pi) -> "ShearModel":
+        p = np.asarray(pi, dtype=float)
+        if p.shape != (len(PARAMETERS),):
+            raise DynamicsError(f"a parameter vector has {len(PARAMETERS)} entries ({', '.join(PARAMETERS)}), not {p.shape}")
+        l1, l2 = arm.l1, arm.l2
+        k1 = (-(p[1] + l1 * p[8] + p[15] / l1), p[2], -(p[9] + l2 / l1 * p[13]), p[10] - l2 / l1 * p[14], p[16], p[17])
+        k2 = (-(p[5] + p[11] / l2 + l2 * p[12]), p[6], -(l1 / l2 * p[9] + p[13]), p[14] - l1 / l2 * p[10], p[18], p[19])
+        return cls((tuple(float(v) for v in k1), tuple(float(v) for v in k2)))
+
+    def shears(self, theta1, theta2, omega1, omega2, alpha1, alpha2) -> np.ndarray:
+        """``(..., 2)``: the cells' dynamic shears [N] (angles [rad], rates [rad/s], accelerations [rad/s^2])."""
+        (a, b, c, d, e, f), (g, h, i, j, k, m) = self.coefficients
+        delta = theta1 - theta2
+        cd, sd = np.cos(delta), np.sin(delta)
+        w1, w2 = omega1 * omega1, omega2 * omega2
+        v1 = a * alpha1 + b * w1 + c * (alpha2 * cd + w2 * sd) + d * (w2 * cd - alpha2 * sd) + e * np.cos(theta1) + f * np.sin(theta1)
+        v2 = g * alpha2 + h * w2 + i * (alpha1 * cd - w1 * sd) + j * (alpha1 * sd + w1 * cd) + k * np.cos(theta2) + m * np.sin(theta2)
+        return np.stack([v1, v2], axis=-1)
+
+
 @dataclass(frozen=True)
 class BaseParameters:
     """The identifiable combinations of :data:`PARAMETERS`: ``beta = K @ pi``.

@@ -56,17 +56,45 @@ def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2
     (default :data:`THREADS`) threads when there are several blocks; the
     result does not depend on it.
     """
+    fx, fy, status, _ = _run_blocks(model, offsets, capacity, delta_range, (theta1, theta2, load1, load2), None, threads)
+    return fx, fy, status
+
+
+def estimate_moving(model, offsets, capacity, delta_range, shear_model, theta1, theta2, omega1, omega2, alpha1, alpha2,
+                    load1, load2, *, threads: int | None = None):  # fmt: skip
+    """:func:`estimate` while the arm moves: ``(fx, fy, status, inertial)``.
+
+    ``shear_model`` (:class:`sailforce.dynamics.ShearModel`) gives the
+    cells' dynamic shears ``V`` from the joint rates [rad/s] and
+    accelerations [rad/s^2]; the force is (``docs/dynamics.md``)::
+
+        F = M^-1 (s - offsets) - w,      w = (J^T)^-1 diag(l1, l2) V
+
+    and ``inertial = M w`` ``(..., 2)`` is the subtracted load in reading
+    units.  Where a rate or acceleration is NaN (motion unknown), the
+    status is :data:`MOTION_UNKNOWN` unless a static status outranks it,
+    and fx, fy and inertial are NaN.  Saturation is judged on the raw
+    readings: the cell carries the inertial load too.
+    """
+    arrays = (theta1, theta2, load1, load2, omega1, omega2, alpha1, alpha2)
+    return _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, threads)
+
+
+def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, threads):
     threads = THREADS if threads is None else threads
-    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (theta1, theta2, load1, load2)))
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in arrays))
     shape = arrays[0].shape
     flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
     n = flat[0].size
     fx, fy, status = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
+    inertial = np.empty((n, 2)) if shear_model is not None else None
 
     def run(start: int) -> None:
         stop = min(start + BLOCK, n)
-        fx[start:stop], fy[start:stop], status[start:stop] = _estimate_block(
-            model, offsets, capacity, delta_range, *(a[start:stop] for a in flat))
+        out = _estimate_block(model, offsets, capacity, delta_range, shear_model, *(a[start:stop] for a in flat))
+        fx[start:stop], fy[start:stop], status[start:stop] = out[:3]
+        if inertial is not None:
+            inertial[start:stop] = out[3]
 
     starts = range(0, n, BLOCK)
     if len(starts) > 1 and threads > 1:
@@ -75,17 +103,19 @@ def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2
     else:
         for start in starts:
             run(start)
-    return fx.reshape(shape), fy.reshape(shape), status.reshape(shape)
+    return (fx.reshape(shape), fy.reshape(shape), status.reshape(shape),
+            None if inertial is None else inertial.reshape(shape + (2,)))  # fmt: skip
 
 
-def _estimate_block(model, offsets, capacity, delta_range, theta1, theta2, load1, load2):
+def _estimate_block(model, offsets, capacity, delta_range, shear_model, theta1, theta2, load1, load2, *motion):
     invalid = ~(np.isfinite(theta1) & np.isfinite(theta2) & np.isfinite(load1) & np.isfinite(load2))
     if invalid.any():  # keep NaN out of the arithmetic; these rows are masked below
         theta1, theta2, load1, load2 = (np.where(invalid, 0.0, a) for a in (theta1, theta2, load1, load2))
     sin1, cos1, sin2, cos2 = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
     delta = theta1 - theta2
     singular = is_singular(sin_delta_from_trig(sin1, cos1, sin2, cos2))  # det J = -l2 l3 sin(delta) (seed Eq. 9)
-    m = model.sensing_entries(delta, torque_entries(model.arm, sin1, cos1, sin2, cos2))
+    jt = torque_entries(model.arm, sin1, cos1, sin2, cos2)
+    m = model.sensing_entries(delta, jt)
     s1, s2 = load1 - offsets[0], load2 - offsets[1]
     saturated = (np.abs(s1) > capacity[0]) | (np.abs(s2) > capacity[1])
     extrapolated = (delta < delta_range[0] - DELTA_RANGE_SLACK) | (delta > delta_range[1] + DELTA_RANGE_SLACK)
@@ -95,10 +125,22 @@ def _estimate_block(model, offsets, capacity, delta_range, theta1, theta2, load1
 
     status = np.zeros(fx.shape, dtype=np.int8)
     status[extrapolated] = EXTRAPOLATED
+    inertial = None
+    if shear_model is not None:
+        omega1, omega2, alpha1, alpha2 = motion
+        unknown = ~(np.isfinite(omega1) & np.isfinite(omega2) & np.isfinite(alpha1) & np.isfinite(alpha2))
+        v = shear_model.shears(theta1, theta2, omega1, omega2, alpha1, alpha2)
+        l1, l2 = model.arm.l1, model.arm.l2
+        wx, wy = solve_sensing(jt, l1 * v[:, 0], l2 * v[:, 1], singular)  # J^T w = diag(l) V
+        fx, fy = fx - wx, fy - wy
+        inertial = np.stack([m[0] * wx + m[1] * wy, m[2] * wx + m[3] * wy], axis=-1)
+        inertial[unknown | invalid] = np.nan
+        status[unknown] = MOTION_UNKNOWN
+        fx[unknown], fy[unknown] = np.nan, np.nan
     status[saturated] = SATURATED
     status[singular] = SINGULAR
     status[invalid] = INVALID
-    return fx, fy, status
+    return fx, fy, status, inertial
 
 
 def status_counts(status: np.ndarray) -> dict[str, int]:

@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compensation import solve_sensing, torque_entries
-from .differentiate import Differentiator, MotionDataError, derivatives, sampling_period
-from .dynamics import PARAMETERS, base_parameters, shear_regressor
+from .differentiate import Differentiator, MotionDataError, RateTracker, derivatives, sampling_period
+from .dynamics import PARAMETERS, ShearModel, base_parameters, shear_regressor
 
 #: Largest condition number of the (column-scaled) identification problem: beyond it some base parameter
 #: is barely excited, and its estimate is noise.  Measured: a session of 8 reaches in 8 directions gives ~30.
@@ -55,12 +55,9 @@ class DynamicTerm:
         pi[list(self.columns)] = self.values
         return pi
 
-    def shears(self, arm, q, qd, qdd) -> np.ndarray:
-        """The cells' dynamic shears ``(n, 2)`` [N] for joint states ``(n, 2)``; NaN where a state is unknown."""
-        known = np.all(np.isfinite(q) & np.isfinite(qd) & np.isfinite(qdd), axis=1)
-        q, qd, qdd = (np.where(known[:, None], a, 0.0) for a in (q, qd, qdd))
-        Y = shear_regressor(arm, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], qdd[:, 0], qdd[:, 1])
-        return np.where(known[:, None], Y[..., list(self.columns)] @ np.asarray(self.values), np.nan)
+    def shear_model(self, arm) -> ShearModel:
+        """The closed-form shears of these base parameters on ``arm``."""
+        return ShearModel.from_parameters(arm, self.parameters())
 
 
 def reading_gain(model, arm, theta1, theta2) -> np.ndarray:
@@ -146,27 +143,35 @@ def _force_rmse(cal, q: np.ndarray, residual: np.ndarray) -> float:
     return float(np.sqrt(np.nanmean(fx**2 + fy**2)))
 
 
-def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2):
+def motion_states(term: DynamicTerm, t, q, *, dt: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Joint rates and accelerations ``(n, 2)`` of angles ``q`` ``(n, 2)`` at times ``t``, as ``sail estimate`` derives them.
+
+    Zero-phase, with the period ``dt`` given or probed from the first
+    steps (:class:`sailforce.differentiate.RateTracker`); NaN where the
+    motion is unknown (start, end, gaps, invalid samples): nothing raises.
+    """
+    tracker = RateTracker(term.differentiator, dt)
+    parts = [tracker.feed(t, q), tracker.finish()]
+    return np.concatenate([parts[0][0], parts[1][0]]), np.concatenate([parts[0][1], parts[1][1]])
+
+
+def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2, *, rates=None, dt: float | None = None):
     """Offline force estimate with the dynamic term: ``(fx, fy, status, inertial)``.
 
-    ``inertial`` ``(n, 2)`` is the subtracted dynamic load in reading units;
-    samples whose motion is unknown (start, end, around gaps) get NaN there
-    and the status :data:`sailforce.estimator.MOTION_UNKNOWN` unless a
-    static status outranks it.
+    ``rates`` ``(omega, alpha)``, each ``(n, 2)`` [rad/s, rad/s^2], are
+    used when measured; otherwise they are derived from ``t`` and the
+    angles (:func:`motion_states`).  ``inertial`` ``(n, 2)`` is the
+    subtracted dynamic load in reading units; samples whose motion is
+    unknown (start, end, around gaps) get NaN there and the status
+    :data:`sailforce.estimator.MOTION_UNKNOWN` unless a static status
+    outranks it.
     """
-    from .estimator import EXTRAPOLATED, MOTION_UNKNOWN, OK
+    from .estimator import estimate_moving as run
 
     q = np.column_stack([theta1, theta2]).astype(float)
-    qd, qdd = derivatives(t, q, term.differentiator)
-    inertial = np.einsum("nij,nj->ni", reading_gain(cal.model, cal.arm, q[:, 0], q[:, 1]), term.shears(cal.arm, q, qd, qdd))
-    unknown = ~np.all(np.isfinite(inertial), axis=1)
-    subtracted = np.where(unknown[:, None], 0.0, inertial)  # the static checks still run where the motion is unknown
-    fx, fy, status = cal.estimate(theta1, theta2, np.asarray(load1) - subtracted[:, 0], np.asarray(load2) - subtracted[:, 1])
-    unknown &= (status == OK) | (status == EXTRAPOLATED)
-    status[unknown] = MOTION_UNKNOWN
-    fx[unknown] = np.nan
-    fy[unknown] = np.nan
-    return fx, fy, status, inertial
+    qd, qdd = motion_states(term, t, q, dt=dt) if rates is None else rates
+    return run(cal.model, cal.offsets, cal.capacity, cal.delta_range, term.shear_model(cal.arm), q[:, 0], q[:, 1],
+               qd[:, 0], qd[:, 1], qdd[:, 0], qdd[:, 1], load1, load2)  # fmt: skip
 
 
 def prior_term(robot, differentiator: Differentiator = Differentiator()) -> DynamicTerm:
