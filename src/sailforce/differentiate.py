@@ -35,6 +35,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -246,13 +247,19 @@ def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarra
     return rate, accel
 
 
-def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Savitzky-Golay rate and acceleration of each full window of ``q``, in blocks on :data:`THREADS` threads."""
+@lru_cache(maxsize=16)
+def _coefficients(width: int, order: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Savitzky-Golay rate and acceleration coefficients (computed once per stream, not per sample)."""
     from scipy.signal import savgol_coeffs
 
+    return (savgol_coeffs(width, order, deriv=1, delta=dt, use="dot"),
+            savgol_coeffs(width, order, deriv=2, delta=dt, use="dot"))  # fmt: skip
+
+
+def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Savitzky-Golay rate and acceleration of each full window of ``q``, in blocks on :data:`THREADS` threads."""
     windows = np.lib.stride_tricks.sliding_window_view(q, width, axis=0)  # (n - width + 1, k, width)
-    first = savgol_coeffs(width, order, deriv=1, delta=dt, use="dot")
-    second = savgol_coeffs(width, order, deriv=2, delta=dt, use="dot")
+    first, second = _coefficients(width, order, dt)
     rate, accel = np.empty(windows.shape[:2]), np.empty(windows.shape[:2])
 
     def run(i: int) -> None:

@@ -1,7 +1,8 @@
 """Estimating force over files of any size, and over a live line stream.
 
 Output columns: the input's, then ``fx_N, fy_N, force_N, angle_deg,
-status``.  Every input row gives exactly one output row, in order; rows
+status``; with a dynamic term (:mod:`sailforce.motion_stream`) also
+``inertial1, inertial2`` before ``status``.  Every input row gives exactly one output row, in order; rows
 without an estimate (invalid, singular) have empty force fields.
 
 CSV output copies each input line byte for byte and appends the five
@@ -30,12 +31,14 @@ from .calfile import Calibration
 from .estimator import INVALID, STATUS_NAMES
 from .filters import LowPass
 from .io import atomic_writer
+from .motion_stream import MotionColumns, MotionRows, MotionStage, motion_columns
 from .tables import (READING_COLUMNS, Chunk, Header, TableError, chunk_jobs, csv_chunks, csv_header, is_parquet,
                      parquet_schema, read_header)
 
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
+#: With a dynamic term: the subtracted inertial and gravity load of each cell, in reading units, before status.
+MOTION_OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "inertial1", "inertial2", "status")
 _STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
-_OUTPUT_HEADER = ("," + ",".join(OUTPUT_COLUMNS) + "\n").encode()
 
 #: Chunks in flight at once: estimating and formatting one chunk (numpy and
 #: Arrow release the GIL) overlaps with parsing the next and writing the last.
@@ -48,26 +51,43 @@ def estimate_columns(cal: Calibration, values: dict[str, np.ndarray], malformed:
     return _estimate(cal, values, malformed, _loads(values, malformed, lowpass))
 
 
-def _loads(values: dict[str, np.ndarray], malformed: np.ndarray, lowpass: LowPass | None) -> np.ndarray:
-    """The ``(n, 2)`` loads, low-pass filtered if asked (sequential: the filter state runs through the stream)."""
+def _loads(values: dict[str, np.ndarray], malformed: np.ndarray, lowpass: LowPass | None,
+           motion: MotionRows | None = None) -> np.ndarray:  # fmt: skip
+    """The ``(n, 2)`` loads, low-pass filtered if asked (sequential: the filter state runs through the stream).
+
+    With a motion, the filter runs on the loads less their inertial part
+    (which is then added back, to be subtracted with the estimate), so that
+    the filter's delay does not misalign the loads and the dynamic term.
+    """
     loads = np.column_stack([values["load1"], values["load2"]])
     if lowpass is None:
         return loads
     valid = ~malformed & np.all(np.isfinite(loads), axis=1)
     valid &= np.isfinite(values["theta1_deg"]) & np.isfinite(values["theta2_deg"])
-    return lowpass.process(loads, valid)
+    if motion is None:
+        return lowpass.process(loads, valid)
+    inertial = motion.inertial(values)
+    known = valid & np.all(np.isfinite(inertial), axis=1)
+    filtered = lowpass.process(loads - np.where(known[:, None], inertial, 0.0), known) + inertial
+    return np.where(known[:, None], filtered, loads)  # unknown motion: the raw loads, for the static checks
 
 
-def _estimate(cal: Calibration, values: dict[str, np.ndarray], malformed: np.ndarray,
-              loads: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
+def _estimate(cal: Calibration, values: dict[str, np.ndarray], malformed: np.ndarray, loads: np.ndarray,
+              motion: MotionRows | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
-    fx, fy, status = cal.estimate(theta1, theta2, loads[:, 0], loads[:, 1], threads=1)  # chunks already run in parallel
+    inertial = None
+    if motion is None:
+        fx, fy, status = cal.estimate(theta1, theta2, loads[:, 0], loads[:, 1], threads=1)  # chunks run in parallel
+    else:
+        fx, fy, status, inertial = motion.estimate(cal, theta1, theta2, loads)
     status[malformed] = INVALID
     fx[malformed] = np.nan
     fy[malformed] = np.nan
-    force = np.hypot(fx, fy)
-    angle = np.degrees(np.arctan2(fy, fx))
-    return {"fx_N": fx, "fy_N": fy, "force_N": force, "angle_deg": angle}, status
+    columns = {"fx_N": fx, "fy_N": fy, "force_N": np.hypot(fx, fy), "angle_deg": np.degrees(np.arctan2(fy, fx))}
+    if inertial is not None:
+        inertial[malformed] = np.nan
+        columns |= {"inertial1": inertial[:, 0], "inertial2": inertial[:, 1]}
+    return columns, status
 
 
 def csv_rows(lines: pa.Array, columns: dict[str, np.ndarray], status: np.ndarray) -> bytes:
@@ -153,9 +173,10 @@ def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: _ParquetTyp
     return _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, None), parquet)
 
 
-def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _ParquetTypes | None):
+def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _ParquetTypes | None,
+                  motion: MotionRows | None = None):  # fmt: skip
     """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and its size."""
-    columns, status = _estimate(cal, chunk.values, chunk.malformed, loads)
+    columns, status = _estimate(cal, chunk.values, chunk.malformed, loads, motion)
     counts = np.bincount(status, minlength=len(STATUS_NAMES))
     if parquet is not None:
         table = parquet.convert(chunk) if chunk.from_csv else chunk.table
@@ -170,16 +191,25 @@ def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _P
     return sink.getvalue().to_pybytes(), counts, (chunk.num_rows, chunk.input_size)
 
 
-def _csv_output_header(source: Path, header: Header | None) -> bytes:
+def _output_header(names: tuple[str, ...]) -> bytes:
+    return ("," + ",".join(names) + "\n").encode()
+
+
+def _csv_output_header(source: Path, header: Header | None, names: tuple[str, ...]) -> bytes:
     if header is not None:
-        return header.line + _OUTPUT_HEADER
+        return header.line + _output_header(names)
     schema = parquet_schema(source, READING_COLUMNS)
     nested = [f"{f.name!r} ({f.type})" for f in schema if pa.types.is_nested(f.type)]
     if nested:
         raise TableError(f"{source}: column(s) {', '.join(nested)} cannot be written as CSV; write Parquet output instead")
     sink = pa.BufferOutputStream()
     pacsv.write_csv(schema.empty_table(), sink)
-    return sink.getvalue().to_pybytes().rstrip(b"\n") + _OUTPUT_HEADER
+    return sink.getvalue().to_pybytes().rstrip(b"\n") + _output_header(names)
+
+
+def table_motion(cal: Calibration, source: object, names: list[str]) -> MotionColumns | None:
+    """The motion columns ``sail estimate`` uses: None unless the calibration has a dynamic term and the table a motion."""
+    return None if cal.dynamics is None else motion_columns(source, names)
 
 
 def stream_estimate(
@@ -189,19 +219,26 @@ def stream_estimate(
     *,
     lowpass: LowPass | None = None,
     on_chunk: Callable[[int, int], None] | None = None,
+    dt: float | None = None,
 ) -> dict[str, int]:
     """Estimate every row of ``source`` into ``destination`` (CSV or Parquet by extension), in constant memory.
 
     The output file appears only when complete (atomic write).  ``on_chunk``
     receives, for progress, the number of rows written and the part of the
     input they came from (:func:`sailforce.tables.input_size`'s unit).  Chunks are estimated
-    on :data:`WORKERS` threads and written in order.  Returns the count of
-    rows per status.
+    on :data:`WORKERS` threads and written in order.  When the calibration
+    has a dynamic term and the table a motion (:func:`table_motion`), it is
+    subtracted; ``dt`` [s] is then the sampling period (probed from the
+    first steps when None).  Returns the count of rows per status.
     """
     source, destination = Path(source), Path(destination)
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
     parquet = _ParquetTypes() if is_parquet(destination) else None
     header = csv_header(source, READING_COLUMNS)
+    names = header.names if header is not None else list(parquet_schema(source, READING_COLUMNS).names)
+    motion = table_motion(cal, source, names)
+    stage = MotionStage(cal, motion, dt) if motion is not None else None
+    needed = READING_COLUMNS + (motion.names if motion is not None else ())
     writer = None
 
     def write(job: Future) -> None:
@@ -219,17 +256,27 @@ def stream_estimate(
     with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
         try:
             if parquet is None:
-                stream.write(_csv_output_header(source, header))
+                stream.write(_csv_output_header(source, header, MOTION_OUTPUT_COLUMNS if motion else OUTPUT_COLUMNS))
             pending: deque[Future] = deque()
-            for job in chunk_jobs(source, READING_COLUMNS):
-                if lowpass is None:  # chunks are independent: parse them on the workers too
-                    pending.append(pool.submit(_job_output, cal, job, parquet))
-                else:  # the filter runs through the stream in order
-                    chunk = job()
-                    loads = _loads(chunk.values, chunk.malformed, lowpass)
-                    pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet))
+
+            def submit(chunk: Chunk, rows: MotionRows | None) -> None:
+                loads = _loads(chunk.values, chunk.malformed, lowpass, rows)  # in order: the filter runs through
+                pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet, rows))
                 while len(pending) >= WORKERS:
                     write(pending.popleft())
+
+            for job in chunk_jobs(source, needed):
+                if stage is not None:
+                    for chunk, rows in stage.push(job()):
+                        submit(chunk, rows)
+                elif lowpass is None:  # chunks are independent: parse them on the workers too
+                    pending.append(pool.submit(_job_output, cal, job, parquet))
+                    while len(pending) >= WORKERS:
+                        write(pending.popleft())
+                else:
+                    submit(job(), None)
+            for chunk, rows in stage.finish() if stage is not None else ():
+                submit(chunk, rows)
             while pending:
                 write(pending.popleft())
         finally:
@@ -241,13 +288,20 @@ def stream_estimate(
 
 
 def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], IO[bytes]], *,
-                   lowpass: LowPass | None = None, source: str = "the stream") -> dict[str, int]:  # fmt: skip
+                   lowpass: LowPass | None = None, source: str = "the stream", dt: float | None = None,
+                   on_motion: Callable[[MotionStage | None], None] | None = None) -> dict[str, int]:  # fmt: skip
     """Live stream: a header line, then one reading per line; each estimate is written and flushed at once.
 
     ``lines`` are raw lines (bytes, line end included).  ``open_output`` is
     called once the header is read and checked, so that nothing is opened,
     let alone truncated, for a stream that is not a table of readings.  The
-    rows are those :func:`stream_estimate` writes for the same bytes.
+    rows are those :func:`stream_estimate` writes for the same bytes.  With
+    a dynamic term and derived rates, each row is written half a window
+    late (:meth:`sailforce.motion_stream.MotionStage.delay`), when its
+    window is complete; an interrupt writes the rows still waiting, their
+    motion unknown, before it ends the stream.  With a dynamic term,
+    ``on_motion`` receives the motion stage once the header is read (None
+    when the stream gives no motion), to report its delay.
     """
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
     lines = iter(lines)
@@ -255,19 +309,36 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     if not first:
         raise TableError(f"{source} ended before its header line")
     header = read_header(source, first, READING_COLUMNS)
+    motion = table_motion(cal, source, header.names)
+    stage = MotionStage(cal, motion, dt) if motion is not None else None
+    needed = READING_COLUMNS + (motion.names if motion is not None else ())
     out = open_output()
-    out.write(header.line + _OUTPUT_HEADER)
+    out.write(header.line + _output_header(MOTION_OUTPUT_COLUMNS if motion else OUTPUT_COLUMNS))
     out.flush()
-    for chunk in csv_chunks(source, header, READING_COLUMNS, _whole_lines(lines), fast=False):
-        output, chunk_counts, _ = _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, lowpass), None)
+    if cal.dynamics is not None and on_motion is not None:
+        on_motion(stage)
+
+    def write(chunk: Chunk, rows: MotionRows | None) -> None:
+        nonlocal counts
+        loads = _loads(chunk.values, chunk.malformed, lowpass, rows)
+        output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows)
         out.write(output)
         out.flush()
         counts += chunk_counts
+
+    try:
+        for chunk in csv_chunks(source, header, needed, _whole_lines(lines), fast=False):
+            for ready in stage.push(chunk) if stage is not None else [(chunk, None)]:
+                write(*ready)
+    except KeyboardInterrupt:  # keep every row read: those still waiting for their window go out unknown
+        for ready in stage.finish() if stage is not None else ():
+            write(*ready)
+        raise
+    for ready in stage.finish() if stage is not None else ():
+        write(*ready)
     if not counts.sum():
         raise TableError(f"{source}: no data rows below the header")
     return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}
-
-
 def _whole_lines(lines: Iterator[bytes]) -> Iterator[bytes]:
     """Each line as a block of its own, ending with ``\\n`` (the last line of a stream may lack one)."""
     for line in lines:

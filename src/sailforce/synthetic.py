@@ -64,12 +64,13 @@ def session_offsets(robot: Robot, noise: NoiseModel, seed: int) -> np.ndarray:
 
 
 def calibration_session(robot: Robot, *, seed: int = 1, step_deg: float = 7.5, directions: int = 12,
-                        force_N: float = 20.0, noise: NoiseModel = NoiseModel()):  # fmt: skip
+                        force_N: float = 20.0, noise: NoiseModel = NoiseModel(), offsets=None):  # fmt: skip
     """A pulley-and-weights session: poses every ``step_deg`` over delta = 15..165 deg at random theta2,
     ``directions`` forces of ``force_N`` at each.
 
     Returns ``(theta1, theta2, fx, fy, counts, offsets)``: angles [rad], forces [N],
-    raw counts ``(n, 2)`` from :func:`recording`, and the offsets used.
+    raw counts ``(n, 2)`` from :func:`recording`, and the offsets used
+    (``offsets`` given: that rig's, e.g. :func:`session_offsets`).
     """
     rng = np.random.default_rng(seed)
     delta = np.radians(np.arange(15.0, 165.0 + 1e-9, step_deg))
@@ -77,5 +78,5 @@ def calibration_session(robot: Robot, *, seed: int = 1, step_deg: float = 7.5, d
     phi = np.radians(np.arange(0.0, 360.0, 360.0 / directions))
     t1, t2 = np.repeat(delta + theta2, phi.size), np.repeat(theta2, phi.size)
     fx, fy = np.tile(force_N * np.cos(phi), delta.size), np.tile(force_N * np.sin(phi), delta.size)
-    counts, offsets, _ = recording(robot, t1, t2, fx, fy, noise=noise, seed=seed + 1)
+    counts, offsets, _ = recording(robot, t1, t2, fx, fy, noise=noise, seed=seed + 1, offsets=offsets)
     return t1, t2, fx, fy, counts, offsets

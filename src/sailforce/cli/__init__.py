@@ -51,6 +51,7 @@ _COMMAND_MODULES = {
     "reproduce": "reproduce_cmd",
     "robot": "robot_cmd",
     "simulate": "simulate_cmd",
+    "simulate-motion": "simulate_motion_cmd",
     "statics": "statics_cmd",
     "stress": "stress_cmd",
     "tare": "calibrate_cmd",

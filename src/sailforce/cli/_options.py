@@ -104,10 +104,11 @@ def lowpass_options(func):
                         help="Butterworth low-pass cutoff on the loads [Hz]; needs --sample-rate-Hz.")(func)  # fmt: skip
 
 
-def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: int | None):
-    """The :class:`sailforce.filters.LowPass` the options ask for, or None."""
+def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: int | None, *,
+                 rate_alone: bool = False):  # fmt: skip
+    """The :class:`sailforce.filters.LowPass` the options ask for, or None (``rate_alone``: the rate has another use)."""
     if lowpass_hz is None:
-        if sample_rate_hz is not None or order is not None:
+        if (sample_rate_hz is not None and not rate_alone) or order is not None:
             given = "--sample-rate-Hz" if sample_rate_hz is not None else "--lowpass-order"
             raise click.UsageError(f"{given} configures the low-pass, which needs --lowpass-Hz; without it nothing is filtered")
         return None

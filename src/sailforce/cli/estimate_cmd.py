@@ -11,8 +11,8 @@ from rich.console import Console
 
 from ..calfile import Calibration
 from ..io import atomic_writer, check_output, table_format
-from ..streaming import estimate_lines, stream_estimate
-from ..tables import TableError, input_size, is_parquet, read_line
+from ..streaming import estimate_lines, stream_estimate, table_motion
+from ..tables import READING_COLUMNS, TableError, csv_header, input_size, is_parquet, parquet_schema, read_line
 from . import cli
 from ._options import lowpass_options, make_lowpass
 from ._progress import progress_bar
@@ -37,6 +37,18 @@ def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass
     estimate is then written and flushed as its line arrives, and Ctrl-C
     ends the recording, keeping what was written.  A summary of the
     statuses goes to stderr.
+
+    \b
+    In motion: when the calibration has a dynamic term (sail calibrate
+    --free-motion, or --dynamics prior) and the table has t_s [s] (or
+    measured omega1_dps, omega2_dps, alpha1_dps2, alpha2_dps2), the
+    inertial and gravity load is subtracted and written as inertial1,
+    inertial2 (reading units) before status.  Rows within half the
+    differentiator's window of the start, of the end or of a gap get the
+    status motion-unknown and no force.  A live stream's rows then come out
+    half a window late (50 ms with the default window), each when its
+    window is complete.  --sample-rate-Hz sets the sampling period; by
+    default it is the median of the first 64 time steps.
     """
     console = Console(stderr=True)
     if serial_port is not None and source is not None:
@@ -50,25 +62,51 @@ def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass
     elif not live:
         raise click.UsageError("a file input needs -o OUT.csv (or OUT.parquet)")
     cal = Calibration.load(cal_path)
-    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order)
+    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order, rate_alone=cal.dynamics is not None)
+    if sample_rate_hz is not None and not sample_rate_hz > 0:
+        raise click.BadParameter(f"{sample_rate_hz:g} Hz is not a sample rate", param_hint="--sample-rate-Hz")
+    dt = None if sample_rate_hz is None else 1.0 / sample_rate_hz
+    if cal.dynamics is not None and not live:
+        _warn_if_static(console, cal, source)
     if live:
-        counts = _live(cal, source, output, serial_port, baud, lowpass)
+        counts = _live(cal, source, output, serial_port, baud, lowpass, dt, console)
     else:
         unit = "rows" if is_parquet(source) else "bytes"
         with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
-            counts = stream_estimate(cal, source, output, lowpass=lowpass, on_chunk=lambda rows, size: advance(size))
+            counts = stream_estimate(cal, source, output, lowpass=lowpass, dt=dt,
+                                     on_chunk=lambda rows, size: advance(size))  # fmt: skip
     total = sum(counts.values())
+    if cal.dynamics is None:
+        counts.pop("motion-unknown")
     summary = ", ".join(f"{name} {n:,}" for name, n in counts.items())
     console.print(f"{total:,} rows: {summary}" + ("" if live else f"; wrote {output}"), highlight=False)
 
 
-def _live(cal, source, output, serial_port, baud, lowpass):
+def _warn_if_static(console, cal, source) -> None:
+    header = csv_header(source, READING_COLUMNS)
+    names = header.names if header is not None else list(parquet_schema(source, READING_COLUMNS).names)
+    if table_motion(cal, source, names) is None:
+        console.print(f"warning: the calibration has a dynamic term, but {source} has no t_s column (nor measured "
+                      "rates): the estimates are static, right only while the arm is at rest", highlight=False)  # fmt: skip
+
+
+def _live(cal, source, output, serial_port, baud, lowpass, dt, console):
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
     to_file = output is not None and str(output) != "-"
     name = f"serial port {serial_port}" if serial_port is not None else "stdin"
+
+    def report(stage) -> None:
+        if stage is None:
+            console.print(f"warning: the calibration has a dynamic term, but {name} has no t_s column (nor measured "
+                          "rates): the estimates are static, right only while the arm is at rest", highlight=False)  # fmt: skip
+        elif stage.delay() != 0:
+            late = stage.cal.dynamics.differentiator.window_s / 2
+            console.print(f"dynamic term on: each row comes out {late * 1e3:g} ms late (half the rate window), "
+                          "when its window is complete", highlight=False)  # fmt: skip
+
     with (atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer)) as out:
         with _line_source(serial_port, baud) as lines:
-            return estimate_lines(cal, lines, lambda: out, lowpass=lowpass, source=name)
+            return estimate_lines(cal, lines, lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report)
 
 
 @contextmanager

@@ -1,0 +1,120 @@
+"""``sail simulate-motion``: a simulated rig's recordings, at rest and moving, with the truth beside them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.console import Console
+
+from .. import __version__
+from ..dynamics import base_parameters, inertial_parameters, parameter_vector
+from ..io import check_output, numeric_table_writer, table_format, write_json
+from ..motion import record, reaching
+from ..synthetic import NoiseModel, calibration_session, session_offsets
+from . import cli
+from ._options import FINITE, PrimaryOption, load_robot, robot_option
+
+SESSIONS = ("static", "free", "task")
+
+#: Motion sessions longer than this are refused: an hour at 1 kHz is 3.6 M rows, beyond any lab session.
+MAX_DURATION_S = 3600.0
+
+MOTION_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "true_fx_N", "true_fy_N")
+STATIC_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2", "fx_N", "fy_N")
+
+
+@cli.command("simulate-motion")
+@robot_option
+@click.option("--session", type=click.Choice(SESSIONS), default="free", show_default=True,
+              help="static: pulley-and-weights calibration poses (for `sail calibrate`); free: the motors move the "
+                   "arm, nobody holds it (for --free-motion); task: a hand pulls toward each target.")
+@click.option("--reach-m", "reach", cls=PrimaryOption, type=FINITE, default=0.3, show_default=True, help="Reach length [m].")
+@click.option("--reaches", type=click.IntRange(1, 10_000), default=16, show_default=True, help="Reaches, one after the other.")
+@click.option("--peak-speed-mps", "peak_speed", cls=PrimaryOption, type=FINITE, default=0.75, show_default=True,
+              help="Peak hand speed of each minimum-jerk reach [m/s] (0.75 m/s over 0.3 m: 3.1 m/s^2 peak).")
+@click.option("--dwell-s", "dwell", cls=PrimaryOption, type=FINITE, default=0.3, show_default=True,
+              help="Rest at each target [s].")
+@click.option("--hand-stiffness-N-per-m", "--hand-stiffness-n-per-m", "stiffness", cls=PrimaryOption, type=FINITE,
+              default=100.0, show_default=True, help="task: the hand pulls toward the reach's target with this spring [N/m].")
+@click.option("--sample-rate-Hz", "--sample-rate-hz", "rate", cls=PrimaryOption, type=FINITE, default=1000.0,
+              show_default=True, help="Sampling rate [Hz].")
+@click.option("--encoder-bits", type=click.IntRange(8, 32), default=16, show_default=True,
+              help="Encoder resolution: 2^bits counts per revolution.")
+@click.option("--noise", "noise_fraction", type=FINITE, default=NoiseModel().noise_fraction, show_default=True,
+              help="Cell noise, fraction of rated output (Gaussian).")
+@click.option("--rig", type=click.IntRange(0), default=1, show_default=True,
+              help="Which simulated rig: its cells' zero offsets, the same in every session made with it.")
+@click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="The session's noise draw.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="OUT.csv or OUT.parquet; OUT.csv.json beside it holds the truth (offsets, base parameters).")
+def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwell, stiffness, rate, encoder_bits,
+                            noise_fraction, rig, seed, output):  # fmt: skip
+    """Simulate a rig's recordings: a static calibration session, or reaching movements with inertia.
+
+    \b
+    A lab's pipeline, simulated end to end (same --rig for all three):
+      sail simulate-motion --session static -o static.csv
+      sail simulate-motion --session free -o free.csv
+      sail calibrate static.csv --free-motion free.csv -o cal.json
+      sail simulate-motion --session task -o task.csv
+      sail estimate --calibration cal.json task.csv -o forces.csv
+
+    Motion sessions: minimum-jerk reaches of --reach-m between targets on a
+    circle, 8 directions, quantized encoders and the cells' noise; columns
+    t_s, theta1_deg, theta2_deg, load1, load2 (HX711 counts) and the hand's
+    true force true_fx_N, true_fy_N.  The robot file's [handle] and [plane]
+    set the handle mass and the tilt.  The static session is the
+    pulley-and-weights calibration (fx_N, fy_N the applied force).
+    """
+    sidecar = output.with_name(output.name + ".json")
+    table_format(output)
+    check_output(output, {"the --robot file": robot_path})
+    check_output(sidecar, {"the --robot file": robot_path}, flag=f"the sidecar of -o {output},")
+    for name, value in (("--reach-m", reach), ("--peak-speed-mps", peak_speed), ("--sample-rate-Hz", rate)):
+        if not value > 0:
+            raise click.BadParameter(f"{value:g} must be positive", param_hint=name)
+    if dwell < 0 or noise_fraction < 0 or stiffness < 0:
+        raise click.UsageError("--dwell-s, --noise and --hand-stiffness-N-per-m cannot be negative")
+    robot = load_robot(robot_path)
+    noise = NoiseModel(noise_fraction=noise_fraction)
+    offsets = session_offsets(robot, noise, rig)
+    console = Console(stderr=True)
+    truth = {"software": f"sailforce {__version__}", "session": session, "rig": rig, "seed": seed,
+             "offsets_counts": offsets.tolist(), "robot_file": str(robot_path) if robot_path else None, "robot": robot}  # fmt: skip
+    if session == "static":
+        t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=seed + 1, noise=noise, offsets=offsets)
+        with numeric_table_writer(output, STATIC_COLUMNS) as write:
+            write({"theta1_deg": np.degrees(t1), "theta2_deg": np.degrees(t2), "load1": counts[:, 0],
+                   "load2": counts[:, 1], "fx_N": fx, "fy_N": fy})  # fmt: skip
+        rows = t1.size
+    else:
+        duration = reaches * (1.875 * reach / peak_speed + dwell)
+        if duration > MAX_DURATION_S:
+            raise click.UsageError(f"{reaches} reaches last {duration:.0f} s, more than {MAX_DURATION_S:.0f} s; "
+                                   "ask for fewer reaches")  # fmt: skip
+        motion = reaching(robot, reach=reach, reaches=reaches, peak_speed=peak_speed, dwell=dwell, sample_rate_hz=rate)
+        rec = record(robot, motion, hand_stiffness=stiffness if session == "task" else 0.0, noise=noise,
+                     counts_per_rev=1 << encoder_bits, seed=seed, offsets=offsets)  # fmt: skip
+        with numeric_table_writer(output, MOTION_COLUMNS) as write:
+            write({"t_s": rec.t, "theta1_deg": np.degrees(rec.theta[:, 0]), "theta2_deg": np.degrees(rec.theta[:, 1]),
+                   "load1": rec.loads[:, 0], "load2": rec.loads[:, 1], "true_fx_N": rec.force[:, 0],
+                   "true_fy_N": rec.force[:, 1]})  # fmt: skip
+        base = base_parameters(robot.arm)
+        truth |= {"base_parameters": dict(zip(base.names, base.of(parameter_vector(
+                      robot.arm, inertial_parameters(robot), robot.plane.gravity)).tolist())),
+                  "counts_per_newton_of_shear": rec.gain, "sample_rate_Hz": rate, "encoder_bits": encoder_bits,
+                  "peak_hand_acceleration_mps2": float(np.max(np.linalg.norm(_hand_acceleration(robot, motion), axis=1)))}  # fmt: skip
+        rows = rec.t.size
+    write_json(sidecar, truth)
+    console.print(f"wrote {rows:,} rows of the {session} session to {output} (the truth in {sidecar})", highlight=False)
+
+
+def _hand_acceleration(robot, motion) -> np.ndarray:
+    from ..kinematics import jacobian
+
+    J = jacobian(robot.arm, motion.q[:, 0], motion.q[:, 1])
+    dt = motion.t[1] - motion.t[0] if motion.t.size > 1 else 1.0
+    xd = (J @ motion.qd[..., None])[..., 0]
+    return np.gradient(xd, dt, axis=0)
