@@ -83,12 +83,23 @@ static int finish(sail_force *out, sail_real fx, sail_real fy, int status)
 
 int sail_estimate(const sail_calibration *cal, const sail_reading *in, sail_force *out)
 {
-    sail_real s1, c1, s2, c2, delta, jt[2][2], m[2][2], det, u1, u2;
+    sail_real jt[2][2], m[2][2], trig[4];
+    return sail_estimate_parts(cal, in, out, jt, m, trig);
+}
+
+int sail_estimate_parts(const sail_calibration *cal, const sail_reading *in, sail_force *out, sail_real jt[2][2],
+                        sail_real m[2][2], sail_real trig[4])
+{
+    sail_real s1, c1, s2, c2, delta, det, u1, u2;
     int status = SAIL_OK;
     if (!sail_finite4(in))
         return finish(out, SAIL_NAN, SAIL_NAN, SAIL_INVALID);
     sail_sincos(in->theta1, &s1, &c1);
     sail_sincos(in->theta2, &s2, &c2);
+    trig[0] = s1;
+    trig[1] = c1;
+    trig[2] = s2;
+    trig[3] = c2;
     /* det J = -l2 l3 sin(delta) (seed Eq. 9): the parallelogram collapses as sin(delta) -> 0 */
     if (SAIL_FABS(s1 * c2 - c1 * s2) < (sail_real)SAIL_SINGULAR_SIN_DELTA)
         return finish(out, SAIL_NAN, SAIL_NAN, SAIL_SINGULAR);

@@ -75,4 +75,9 @@ static inline int sail_finite4(const sail_reading *r)
     return isfinite(r->theta1) && isfinite(r->theta2) && isfinite(r->load1) && isfinite(r->load2);
 }
 
+/* sail_estimate, also giving J^T, M and (sin th1, cos th1, sin th2, cos th2); jt and m are set
+ * unless the status is SAIL_INVALID or SAIL_SINGULAR, trig unless SAIL_INVALID. */
+int sail_estimate_parts(const sail_calibration *cal, const sail_reading *in, sail_force *out, sail_real jt[2][2],
+                        sail_real m[2][2], sail_real trig[4]);
+
 #endif /* SAIL_MATH_H */

@@ -12,6 +12,14 @@ For each model kind that ``sail calibrate`` produces (matrix, seed) it:
    :meth:`sailforce.calfile.Calibration.estimate` returns for them, covering
    every status, status precedence, and NaN and infinite fields.
 
+For the dynamic term it runs a simulated rig's static and free-motion
+sessions (``sail simulate-motion``, 1 kg handle, 3 deg tilt) through ``sail
+calibrate --free-motion`` and ``sail export-c --sample-rate-hz 1000``
+(``cal_motion.h``, ``sail_cal_motion`` and ``sail_cal_motion_dynamics``),
+and writes ``motion.csv``: a task session with a gap, a step back in time,
+an invalid angle, an invalid load and saturated readings, and what
+:func:`sailforce.inertial.estimate_moving` returns for each row.
+
 It also writes ``lowpass.csv``, a reading sequence with invalid rows and the
 loads :class:`sailforce.filters.LowPass` makes of it, for the filter exported
 with the matrix calibration (``sail_cal_matrix_lowpass``).
@@ -104,6 +112,36 @@ def _lowpass_vectors(cal: Calibration, rng: np.random.Generator) -> np.ndarray:
     return np.column_stack([readings, filtered])
 
 
+MOTION_RATE_HZ = 1000.0
+
+
+def _motion_vectors(outdir: Path) -> None:
+    """The rig's calibration with its dynamic term, and a task session's rows with Python's estimates."""
+    (outdir / "rig.toml").write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[handle]\nmass = 1.0\n"
+                                     "[plane]\ntilt_deg = 3\n")  # fmt: skip
+    robot = ["--robot", str(outdir / "rig.toml")]
+    for session, extra in (("static", []), ("free", []), ("task", ["--reaches", "4", "--seed", "9"])):
+        _sail("simulate-motion", "--session", session, *robot, *extra, "-o", str(outdir / f"rig_{session}.csv"))
+    _sail("calibrate", str(outdir / "rig_static.csv"), *robot, "--model", "matrix", "--free-motion",
+          str(outdir / "rig_free.csv"), "-o", str(outdir / "cal_motion.json"))  # fmt: skip
+    _sail("export-c", str(outdir / "cal_motion.json"), "-o", str(outdir / "cal_motion.h"), "--name", "sail_cal_motion",
+          "--sample-rate-hz", str(MOTION_RATE_HZ))  # fmt: skip
+    from sailforce.inertial import estimate_moving
+
+    cal = Calibration.load(outdir / "cal_motion.json")
+    task = np.genfromtxt(outdir / "rig_task.csv", delimiter=",", names=True)
+    t = task["t_s"].copy()
+    rows = np.column_stack([np.radians(task["theta1_deg"]), np.radians(task["theta2_deg"]), task["load1"], task["load2"]])
+    t[1500:] += 0.02  # a gap of 20 samples
+    t[2500:] -= 1.0 / MOTION_RATE_HZ  # a step that does not advance (the sampling stays uniform after it)
+    rows[3000, 1] = np.nan  # an invalid angle cuts the window
+    rows[3300, 2] = np.nan  # an invalid load does not
+    rows[3400:3405, 3] = cal.offsets[1] + 1.2 * cal.capacity[1]  # saturated
+    fx, fy, status, inertial = estimate_moving(cal, cal.dynamics, t, *rows.T, dt=1.0 / MOTION_RATE_HZ)
+    _write_csv(outdir / "motion.csv", ["t", "theta1", "theta2", "load1", "load2", "fx", "fy", "status", "inertial1",
+               "inertial2"], np.column_stack([t, rows, fx, fy, status, inertial]))  # fmt: skip
+
+
 def main(outdir: Path) -> None:
     outdir.mkdir(parents=True, exist_ok=True)
     robot = Robot().with_joints("spring")  # moment-carrying joints: a delta-dependent map
@@ -128,6 +166,7 @@ def main(outdir: Path) -> None:
         if kind == "matrix":
             _write_csv(outdir / "lowpass.csv", ["theta1", "theta2", "load1", "load2", "out1", "out2"],
                        _lowpass_vectors(cal, rng))  # fmt: skip
+    _motion_vectors(outdir)
     print(f"wrote libsail test vectors to {outdir}")
 
 

@@ -2,6 +2,7 @@
  * libsail against the Python toolkit's shared test vectors (c/tests/make_vectors.py):
  *   test_vectors matrix|seed VECTORS.csv   sail_estimate vs Calibration.estimate
  *   test_vectors lowpass LOWPASS.csv        sail_lowpass_process vs sailforce.filters.LowPass
+ *   test_vectors motion MOTION.csv          sail_motion_step/flush vs sailforce.inertial.estimate_moving
  * Statuses must be identical; forces agree norm-wise, |dF| <= SAIL_TEST_RTOL |F|.
  */
 #include <stdio.h>
@@ -9,12 +10,13 @@
 #include <string.h>
 
 #include "cal_matrix.h"
+#include "cal_motion.h"
 #include "cal_seed.h"
 #include "check.h"
 #include "sail.h"
 
-#define MAX_ROWS 4096
-#define COLUMNS 7
+#define MAX_ROWS 8192
+#define COLUMNS 10
 
 /* Rows of numbers below a header line; returns the row count, or -1. */
 static int read_rows(const char *path, double rows[][COLUMNS], int columns)
@@ -125,10 +127,73 @@ static int lowpass_vectors(const char *path)
     return 0;
 }
 
+/* Rows in, one at a time, as the firmware would; each estimate comes out `half` rows later, then the flush. */
+static int motion_vectors(const char *path)
+{
+    sail_motion_state state;
+    int i, n = read_rows(path, rows, 10), out = 0, counts[6] = {0, 0, 0, 0, 0, 0};
+    double scale = 0, inertial_scale = 0, worst = 0;
+    CHECK(n > 0, "no vectors in %s", path);
+    for (i = 0; i < n; i++) {
+        if (isfinite(rows[i][5]))
+            scale = fmax(scale, hypot(rows[i][5], rows[i][6]));
+        if (isfinite(rows[i][8]))
+            inertial_scale = fmax(inertial_scale, fmax(fabs(rows[i][8]), fabs(rows[i][9])));
+    }
+    sail_motion_init(&state, &sail_cal_motion_dynamics);
+    for (i = 0; i <= n + sail_cal_motion_dynamics.half; i++) {
+        sail_force f;
+        sail_real inertial[2];
+        sail_reading held;
+        int got;
+        if (i < n) {
+            const sail_reading r = {(sail_real)rows[i][1], (sail_real)rows[i][2], (sail_real)rows[i][3], (sail_real)rows[i][4]};
+            got = sail_motion_step(&state, &sail_cal_motion, rows[i][0], &r, &f, inertial, &held);
+            CHECK(got == (i >= sail_cal_motion_dynamics.half), "row %d: step returned %d", i + 2, got);
+        } else {
+            got = sail_motion_flush(&state, &sail_cal_motion, &f, inertial, &held);
+            CHECK(got == (out < n), "flush returned %d after %d rows", got, out);
+        }
+        if (!got)
+            continue;
+        {
+            const double *row = rows[out];
+            const int expected = (int)row[7];
+            CHECK(f.status == expected, "row %d: status %d, Python %d", out + 2, f.status, expected);
+            CHECK((double)held.load2 == (double)(sail_real)row[4] || (isnan(held.load2) && isnan(row[4])),
+                  "row %d: the held reading is not the row's", out + 2);
+            if (isnan(row[5])) {
+                CHECK(isnan(f.fx) && isnan(f.fy), "row %d: no estimate expected", out + 2);
+            } else {
+                const double err = hypot((double)f.fx - row[5], (double)f.fy - row[6]);
+                CHECK(err <= SAIL_TEST_RTOL * scale, "row %d: F (%.17g, %.17g), Python (%.17g, %.17g)", out + 2,
+                      (double)f.fx, (double)f.fy, row[5], row[6]);
+                worst = fmax(worst, err / scale);
+            }
+            if (isnan(row[8])) {
+                CHECK(isnan(inertial[0]) && isnan(inertial[1]), "row %d: no inertial load expected", out + 2);
+            } else {
+                CHECK_CLOSE(inertial[0], row[8], inertial_scale, 10 * SAIL_TEST_RTOL);  /* the longer chain: rates, shears, M */
+                CHECK_CLOSE(inertial[1], row[9], inertial_scale, 10 * SAIL_TEST_RTOL);
+            }
+            if (expected >= 0 && expected < 6)
+                counts[expected]++;
+            out++;
+        }
+    }
+    CHECK(out == n, "%d estimates for %d readings", out, n);
+    CHECK(counts[SAIL_OK] > 0 && counts[SAIL_SATURATED] > 0 && counts[SAIL_INVALID] > 0 && counts[SAIL_MOTION_UNKNOWN] > 0,
+          "the vectors lack a status");
+    printf("%s: %d readings (ok %d, saturated %d, invalid %d, motion-unknown %d), delay %d; worst |dF| / max|F| %.3g\n",
+           path, n, counts[SAIL_OK], counts[SAIL_SATURATED], counts[SAIL_INVALID], counts[SAIL_MOTION_UNKNOWN],
+           sail_cal_motion_dynamics.half, worst);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass FILE.csv\n");
+        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion FILE.csv\n");
         return 2;
     }
     if (!strcmp(argv[1], "matrix"))
@@ -137,6 +202,8 @@ int main(int argc, char **argv)
         estimate_vectors(&sail_cal_seed, argv[2]);
     else if (!strcmp(argv[1], "lowpass"))
         lowpass_vectors(argv[2]);
+    else if (!strcmp(argv[1], "motion"))
+        motion_vectors(argv[2]);
     else {
         fprintf(stderr, "unknown vector set %s\n", argv[1]);
         return 2;

@@ -249,11 +249,22 @@ def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarra
 
 @lru_cache(maxsize=16)
 def _coefficients(width: int, order: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Savitzky-Golay rate and acceleration coefficients (computed once per stream, not per sample)."""
+    """Savitzky-Golay rate and acceleration coefficients (computed once per stream, not per sample).
+
+    scipy's least-squares solution leaves the acceleration coefficients
+    summing to ~1e-7 (of entries ~100 at 1 kHz), so a constant angle would
+    have an acceleration; they are made exactly symmetric and zero-sum, and
+    the rate coefficients exactly antisymmetric, as the exact filter's are
+    (libsail's folded sums rely on it).
+    """
     from scipy.signal import savgol_coeffs
 
-    return (savgol_coeffs(width, order, deriv=1, delta=dt, use="dot"),
-            savgol_coeffs(width, order, deriv=2, delta=dt, use="dot"))  # fmt: skip
+    first = savgol_coeffs(width, order, deriv=1, delta=dt, use="dot")
+    second = savgol_coeffs(width, order, deriv=2, delta=dt, use="dot")
+    first = 0.5 * (first - first[::-1])
+    second = 0.5 * (second + second[::-1])
+    second[width // 2] -= second.sum()
+    return first, second
 
 
 def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:

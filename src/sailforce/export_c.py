@@ -24,6 +24,8 @@ from .filters import LowPass
 MAX_TERMS = 9
 #: ``SAIL_MAX_SECTIONS`` in sail.h: second-order sections (Butterworth order <= 8).
 MAX_SECTIONS = 4
+#: ``SAIL_MAX_HALF_WINDOW`` in sail.h: half the rate window, in samples.
+MAX_HALF_WINDOW = 64
 
 _C_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
@@ -39,12 +41,13 @@ C_KEYWORDS = frozenset("""
 #: Every name c/include/sail.h declares (tests/test_libsail.py checks this list against the header), and
 #: what <stddef.h>, which it includes, defines.
 LIBSAIL_NAMES = frozenset("""
-    SAIL_DELTA_RANGE_SLACK SAIL_DOUBLE SAIL_EXTRAPOLATED SAIL_H SAIL_INVALID SAIL_MAX_SECTIONS SAIL_MAX_TERMS
-    SAIL_MODEL_MATRIX SAIL_MODEL_SEED SAIL_OK SAIL_REAL SAIL_SATURATED SAIL_SINGULAR SAIL_SINGULAR_SIN_DELTA
-    SAIL_VERSION_MAJOR SAIL_VERSION_MINOR sail_calibration sail_calibration_real_size sail_estimate
-    sail_estimate_block sail_force sail_lowpass sail_lowpass_init sail_lowpass_process sail_lowpass_state
-    sail_model_kind sail_reading sail_real sail_tare_finish sail_tare_init sail_tare_process
-    sail_tare_state
+    SAIL_DELTA_RANGE_SLACK SAIL_DOUBLE SAIL_EXTRAPOLATED SAIL_GAP_FACTOR SAIL_H SAIL_INVALID
+    SAIL_MAX_HALF_WINDOW SAIL_MAX_SECTIONS SAIL_MAX_TERMS SAIL_MODEL_MATRIX SAIL_MODEL_SEED SAIL_MOTION_UNKNOWN
+    SAIL_OK SAIL_REAL SAIL_SATURATED SAIL_SINGULAR SAIL_SINGULAR_SIN_DELTA SAIL_VERSION_MAJOR SAIL_VERSION_MINOR
+    sail_calibration sail_calibration_real_size sail_dynamics sail_estimate sail_estimate_block
+    sail_estimate_moving sail_force sail_lowpass sail_lowpass_init sail_lowpass_process sail_lowpass_state
+    sail_model_kind sail_motion_flush sail_motion_init sail_motion_state sail_motion_step sail_reading
+    sail_real sail_tare_finish sail_tare_init sail_tare_process sail_tare_state
     NULL offsetof size_t ptrdiff_t wchar_t max_align_t
 """.split())
 
@@ -74,14 +77,14 @@ def _padded(rows: list, width: int) -> list:
     return [list(r) + [0.0] * (width - len(r)) for r in rows]
 
 
-def _check_name(name: str, lowpass: bool = False) -> None:
+def _check_name(name: str, lowpass: bool = False, dynamics: bool = False) -> None:
     if not _C_NAME.match(name):
         raise ExportError(f"--name {name!r} is not a C identifier (letters, digits and _, not starting with a digit)")
     if name in C_KEYWORDS:
         raise ExportError(f"--name {name!r} is a C keyword; choose another name, such as the default sail_cal")
     if name.startswith("__") or (name[0] == "_" and name[1:2].isupper()):
         raise ExportError(f"--name {name!r} is reserved for the C implementation (it starts with __ or _ and a capital)")
-    for declared in (name, f"{name}_lowpass") if lowpass else (name,):
+    for declared in (name,) + ((f"{name}_lowpass",) if lowpass else ()) + ((f"{name}_dynamics",) if dynamics else ()):
         if declared in LIBSAIL_NAMES:
             raise ExportError(f"--name {name!r} would declare {declared}, which libsail's sail.h already declares; "
                               "choose another name, such as the default sail_cal")  # fmt: skip
@@ -134,14 +137,39 @@ def lowpass_fields(lowpass: LowPass) -> list[tuple[str, str]]:
             ("zi", _array(np.vstack([zi, np.zeros((pad, 2))]), broken=True))]  # fmt: skip
 
 
+def dynamics_fields(cal: Calibration, sample_rate_hz: float) -> list[tuple[str, str]]:
+    """``(member, initializer)`` pairs of ``struct sail_dynamics``: the shear coefficients and the rate filter."""
+    from .differentiate import _coefficients
+
+    term = cal.dynamics
+    dt = 1.0 / sample_rate_hz
+    width = term.differentiator.window(dt)
+    half = width // 2
+    if half > MAX_HALF_WINDOW:
+        raise ExportError(f"a {term.differentiator.window_s:g} s rate window at {sample_rate_hz:g} Hz is {width} samples; "
+                          f"libsail holds up to {2 * MAX_HALF_WINDOW + 1}")  # fmt: skip
+    first, second = _coefficients(width, term.differentiator.order, dt)  # oldest sample first
+    rate, accel = np.zeros(MAX_HALF_WINDOW + 1), np.zeros(MAX_HALF_WINDOW + 1)
+    rate[: half + 1], accel[: half + 1] = first[half:], second[half:]  # j = 0..half after the centre
+    k = term.shear_model(cal.arm).coefficients
+    return [("l1", _real(cal.arm.l1)), ("l2", _real(cal.arm.l2)), ("k", _array(k, broken=True)), ("dt", _real(dt)),
+            ("half", str(half)), ("rate", _array(rate)), ("accel", _array(accel))]  # fmt: skip
+
+
 def _initializer(ctype: str, name: str, fields: list[tuple[str, str]]) -> str:
     body = "".join(f"    .{member} = {value},\n" for member, value in fields)
     return f"static const {ctype} {name} = {{\n{body}}};\n"
 
 
-def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str = "", lowpass: LowPass | None = None) -> str:
-    """The text of a C header defining ``name`` (and ``name_lowpass`` when a filter is given)."""
-    _check_name(name, lowpass is not None)
+def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str = "", lowpass: LowPass | None = None,
+                       sample_rate_hz: float | None = None) -> str:  # fmt: skip
+    """The text of a C header defining ``name`` (and ``name_lowpass`` when a filter is given).
+
+    With a dynamic term in ``cal`` and a ``sample_rate_hz``, it also defines
+    ``name_dynamics`` (``struct sail_dynamics``) for sail_motion_init.
+    """
+    dynamics = cal.dynamics is not None and sample_rate_hz is not None
+    _check_name(name, lowpass is not None, dynamics)
     guard = f"SAIL_CALIBRATION_{name.upper()}_H"
     lo, hi = np.degrees(cal.delta_range)
     lines = [
@@ -151,9 +179,14 @@ def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str 
     ]
     if lowpass is not None:
         lines.append(f" * Low-pass: Butterworth order {lowpass.order}, {lowpass.cutoff_hz:g} Hz at {lowpass.sample_rate_hz:g} Hz.")
+    if dynamics:
+        lines.append(f" * Dynamic term ({cal.dynamics_source}) with a {cal.dynamics.differentiator.window_s:g} s rate window "
+                     f"at {sample_rate_hz:g} Hz: estimates come out half a window late.")
     text = "\n".join(lines) + " */\n"
     text += f"#ifndef {guard}\n#define {guard}\n\n#include \"sail.h\"\n\n"
     text += _initializer("sail_calibration", name, calibration_fields(cal))
     if lowpass is not None:
         text += "\n" + _initializer("sail_lowpass", f"{name}_lowpass", lowpass_fields(lowpass))
+    if dynamics:
+        text += "\n" + _initializer("sail_dynamics", f"{name}_dynamics", dynamics_fields(cal, sample_rate_hz))
     return text + f"\n#endif /* {guard} */\n"

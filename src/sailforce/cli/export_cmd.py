@@ -27,15 +27,25 @@ def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowp
     The header compiles with the library in float or double builds; both
     model kinds (seed and matrix) are supported.  With --lowpass-hz it also
     holds the filter's second-order sections as `sail_lowpass NAME_lowpass`,
-    for sail_lowpass_init.
+    for sail_lowpass_init.  When the calibration has a dynamic term (sail
+    calibrate --free-motion), --sample-rate-Hz (the encoders' and cells'
+    sampling rate) also exports it as `sail_dynamics NAME_dynamics`, with
+    the rate filter for that rate, for sail_motion_init.
     """
     check_output(output, {"the calibration file": calibration})
     cal = Calibration.load(calibration)
-    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order)
-    text = calibration_header(cal, name, source=calibration.name, lowpass=lowpass)
+    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order, rate_alone=cal.dynamics is not None)
+    console = Console(stderr=True)
+    if cal.dynamics is not None and sample_rate_hz is None:
+        console.print("note: the calibration's dynamic term is not exported; give --sample-rate-Hz (the sampling rate "
+                      "of the encoders and cells) to export it", highlight=False)  # fmt: skip
+    if sample_rate_hz is not None and not sample_rate_hz > 0:
+        raise click.BadParameter(f"{sample_rate_hz:g} Hz is not a sample rate", param_hint="--sample-rate-Hz")
+    text = calibration_header(cal, name, source=calibration.name, lowpass=lowpass, sample_rate_hz=sample_rate_hz)
     if str(output) == "-":
         sys.stdout.write(text)
         return
     with atomic_writer(output) as stream:
         stream.write(text)
-    Console(stderr=True).print(f"wrote {output}: {cal.kind} calibration `{name}`" + (f" and `{name}_lowpass`" if lowpass else ""))
+    extra = [f"`{name}_lowpass`"] * (lowpass is not None) + [f"`{name}_dynamics`"] * (cal.dynamics is not None and sample_rate_hz is not None)
+    console.print(f"wrote {output}: {cal.kind} calibration `{name}`" + "".join(f" and {e}" for e in extra))
