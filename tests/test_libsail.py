@@ -22,7 +22,8 @@ from sailforce.calfile import Calibration
 from sailforce.cli import cli
 from sailforce.compensation import AmplitudePhaseCompensator, MatrixCompensator
 from sailforce.estimator import DELTA_RANGE_SLACK, STATUS_NAMES
-from sailforce.export_c import MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
+from sailforce.differentiate import GAP_FACTOR
+from sailforce.export_c import MAX_HALF_WINDOW, MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
 from sailforce.regressors import PolynomialFit
 from sailforce.streaming import estimate_lines
 
@@ -42,8 +43,10 @@ def test_header_constants_match_python():
     assert int(_define("SAIL_MAX_TERMS")) == MAX_TERMS
     assert int(_define("SAIL_MAX_SECTIONS")) == MAX_SECTIONS
     statuses = re.search(r"enum \{\s*(SAIL_OK.*?)\};", HEADER, re.DOTALL).group(1)
-    names = [n.lower() for n in re.findall(r"SAIL_([A-Z]+),?\s*/\*", statuses)]
-    assert names == list(STATUS_NAMES[:5])  # the static statuses; motion-unknown (5) comes with libsail's motion path
+    names = [n.lower().replace("_", "-") for n in re.findall(r"SAIL_([A-Z_]+),?\s*/\*", statuses)]
+    assert names == list(STATUS_NAMES)
+    assert int(_define("SAIL_MAX_HALF_WINDOW")) == MAX_HALF_WINDOW
+    assert float(_define("SAIL_GAP_FACTOR")) == GAP_FACTOR
 
 
 def test_default_header_is_current(tmp_path):
@@ -139,7 +142,7 @@ def test_stream_example_matches_sail_estimate(stream_example):
     assert len(c_rows) == len(py_rows) == len(lines)
     assert c_rows[0] == py_rows[0]
     statuses = {r[-1] for r in py_rows[1:]}
-    assert statuses == set(STATUS_NAMES[:5])  # the static statuses; libsail has no motion path yet
+    assert statuses == set(STATUS_NAMES[:5])  # the static statuses: the stream example has no dynamic term
     for c_row, py_row in zip(c_rows[1:], py_rows[1:]):
         assert c_row[:-5] == py_row[:-5] and c_row[-1] == py_row[-1]
         for c_field, py_field in zip(c_row[-5:-1], py_row[-5:-1]):

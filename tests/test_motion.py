@@ -104,6 +104,20 @@ def test_blocks_of_any_size_give_one_pass(block):
     assert np.isfinite(rate).sum() > 2000
 
 
+@pytest.mark.parametrize("width, order", [(101, 4), (9, 4), (21, 2), (31, 3)])
+def test_kernels_are_savitzky_golay(width, order):
+    """The polynomial kernels (what libsail evaluates) are scipy's Savitzky-Golay coefficients."""
+    from scipy.signal import savgol_coeffs
+
+    from sailforce.differentiate import _coefficients
+
+    first, second = _coefficients(width, order, 1e-3)
+    expected = savgol_coeffs(width, order, deriv=1, delta=1e-3, use="dot"), savgol_coeffs(width, order, deriv=2, delta=1e-3, use="dot")
+    for got, want in zip((first, second), expected):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-7 * np.abs(want).max())
+    assert abs(second.sum()) <= 1e-12 * np.abs(second).sum() and np.allclose(first, -first[::-1], rtol=0, atol=1e-15 * np.abs(first).max())
+
+
 def test_differentiator_refusals():
     with pytest.raises(MotionDataError, match="does not increase"):
         derivatives([0.0, 0.001, 0.001, 0.002], np.zeros((4, 2)))

@@ -132,6 +132,8 @@ def _motion_vectors(outdir: Path) -> None:
     task = np.genfromtxt(outdir / "rig_task.csv", delimiter=",", names=True)
     t = task["t_s"].copy()
     rows = np.column_stack([np.radians(task["theta1_deg"]), np.radians(task["theta2_deg"]), task["load1"], task["load2"]])
+    step = 2 * np.pi / 65536  # the 16-bit encoders' angles, exact again after the CSV's 12 digits (libsail reads
+    rows[:, :2] = np.round(rows[:, :2] / step) * step  # angles on a 2^24 grid: see SAIL_COUNTS_PER_TURN)
     t[1500:] += 0.02  # a gap of 20 samples
     t[2500:] -= 1.0 / MOTION_RATE_HZ  # a step that does not advance (the sampling stays uniform after it)
     rows[3000, 1] = np.nan  # an invalid angle cuts the window

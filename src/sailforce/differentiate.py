@@ -248,23 +248,37 @@ def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarra
 
 
 @lru_cache(maxsize=16)
-def _coefficients(width: int, order: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Savitzky-Golay rate and acceleration coefficients (computed once per stream, not per sample).
+def kernel_polynomials(width: int, order: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """The Savitzky-Golay kernels as polynomials in the sample's offset ``i`` from the centre (``-h..h``).
 
-    scipy's least-squares solution leaves the acceleration coefficients
-    summing to ~1e-7 (of entries ~100 at 1 kHz), so a constant angle would
-    have an acceleration; they are made exactly symmetric and zero-sum, and
-    the rate coefficients exactly antisymmetric, as the exact filter's are
-    (libsail's folded sums rely on it).
+    The least-squares fit of order ``p`` to a centred window gives rate and
+    acceleration coefficients ``c_i = sum_k b_k i^k`` with
+    ``b^(d) = d! (V^T V)^-1 [d, :] / dt^d``, ``V[i, k] = i^k``
+    (Savitzky & Golay 1964); computed on ``u = i / h`` for conditioning.  The
+    exact kernels are odd (rate) and even (acceleration) in ``i``, and the
+    acceleration's sums to zero; those are imposed, rounding aside.  Returns
+    ``(b_rate, b_accel)``, each ``(order + 1,)``: libsail evaluates the
+    filter from them as ``sum_k b_k T_k`` with moments ``T_k = sum_i i^k q_i``.
     """
-    from scipy.signal import savgol_coeffs
+    half = width // 2
+    i = np.arange(-half, half + 1)
+    k = np.arange(order + 1)
+    u = i / half
+    P = np.linalg.inv((u[:, None] ** k).T @ (u[:, None] ** k))
+    b_rate = P[1] / half ** (1 + k) / dt
+    b_accel = 2 * P[2] / half ** (2 + k) / dt**2
+    b_rate[k % 2 == 0] = 0.0
+    b_accel[k % 2 == 1] = 0.0
+    b_accel[0] = -(b_accel[1:] @ np.sum(i[:, None] ** k[1:], axis=0)) / width
+    return b_rate, b_accel
 
-    first = savgol_coeffs(width, order, deriv=1, delta=dt, use="dot")
-    second = savgol_coeffs(width, order, deriv=2, delta=dt, use="dot")
-    first = 0.5 * (first - first[::-1])
-    second = 0.5 * (second + second[::-1])
-    second[width // 2] -= second.sum()
-    return first, second
+
+@lru_cache(maxsize=16)
+def _coefficients(width: int, order: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Savitzky-Golay rate and acceleration coefficients, oldest sample first (computed once per stream)."""
+    b_rate, b_accel = kernel_polynomials(width, order, dt)
+    powers = np.arange(-(width // 2), width // 2 + 1)[:, None] ** np.arange(order + 1)
+    return powers @ b_rate, powers @ b_accel
 
 
 def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:

@@ -26,6 +26,8 @@ MAX_TERMS = 9
 MAX_SECTIONS = 4
 #: ``SAIL_MAX_HALF_WINDOW`` in sail.h: half the rate window, in samples.
 MAX_HALF_WINDOW = 64
+#: ``SAIL_MAX_RATE_ORDER`` in sail.h: the rate filter's polynomial order.
+MAX_RATE_ORDER = 4
 
 _C_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
@@ -42,7 +44,7 @@ C_KEYWORDS = frozenset("""
 #: what <stddef.h>, which it includes, defines.
 LIBSAIL_NAMES = frozenset("""
     SAIL_DELTA_RANGE_SLACK SAIL_DOUBLE SAIL_EXTRAPOLATED SAIL_GAP_FACTOR SAIL_H SAIL_INVALID
-    SAIL_MAX_HALF_WINDOW SAIL_MAX_SECTIONS SAIL_MAX_TERMS SAIL_MODEL_MATRIX SAIL_MODEL_SEED SAIL_MOTION_UNKNOWN
+    SAIL_COUNTS_PER_TURN SAIL_MAX_HALF_WINDOW SAIL_MAX_RATE_ORDER SAIL_MAX_SECTIONS SAIL_MAX_TERMS SAIL_MODEL_MATRIX SAIL_MODEL_SEED SAIL_MOTION_UNKNOWN
     SAIL_OK SAIL_REAL SAIL_SATURATED SAIL_SINGULAR SAIL_SINGULAR_SIN_DELTA SAIL_VERSION_MAJOR SAIL_VERSION_MINOR
     sail_calibration sail_calibration_real_size sail_dynamics sail_estimate sail_estimate_block
     sail_estimate_moving sail_force sail_lowpass sail_lowpass_init sail_lowpass_process sail_lowpass_state
@@ -139,7 +141,7 @@ def lowpass_fields(lowpass: LowPass) -> list[tuple[str, str]]:
 
 def dynamics_fields(cal: Calibration, sample_rate_hz: float) -> list[tuple[str, str]]:
     """``(member, initializer)`` pairs of ``struct sail_dynamics``: the shear coefficients and the rate filter."""
-    from .differentiate import _coefficients
+    from .differentiate import kernel_polynomials
 
     term = cal.dynamics
     dt = 1.0 / sample_rate_hz
@@ -148,12 +150,21 @@ def dynamics_fields(cal: Calibration, sample_rate_hz: float) -> list[tuple[str, 
     if half > MAX_HALF_WINDOW:
         raise ExportError(f"a {term.differentiator.window_s:g} s rate window at {sample_rate_hz:g} Hz is {width} samples; "
                           f"libsail holds up to {2 * MAX_HALF_WINDOW + 1}")  # fmt: skip
-    first, second = _coefficients(width, term.differentiator.order, dt)  # oldest sample first
-    rate, accel = np.zeros(MAX_HALF_WINDOW + 1), np.zeros(MAX_HALF_WINDOW + 1)
-    rate[: half + 1], accel[: half + 1] = first[half:], second[half:]  # j = 0..half after the centre
+    order = term.differentiator.order
+    if order > MAX_RATE_ORDER:
+        raise ExportError(f"the rate filter has order {order}; libsail's holds order <= {MAX_RATE_ORDER}")
+    rate, accel = np.zeros(MAX_RATE_ORDER + 1), np.zeros(MAX_RATE_ORDER + 1)
+    rate[: order + 1], accel[: order + 1] = kernel_polynomials(width, order, dt)
     k = term.shear_model(cal.arm).coefficients
-    return [("l1", _real(cal.arm.l1)), ("l2", _real(cal.arm.l2)), ("k", _array(k, broken=True)), ("dt", _real(dt)),
-            ("half", str(half)), ("rate", _array(rate)), ("accel", _array(accel))]  # fmt: skip
+    return [("l1", _real(cal.arm.l1)), ("l2", _real(cal.arm.l2)), ("k", _array(k, broken=True)), ("dt", repr(dt)),
+            ("half", str(half)), ("order", str(order)), ("rate", _doubles(rate)), ("accel", _doubles(accel))]  # fmt: skip
+
+
+def _doubles(values) -> str:
+    """A C initializer of double literals (members that are double in every build)."""
+    if not np.all(np.isfinite(values)):
+        raise ExportError("cannot export non-finite values")
+    return "{" + ", ".join(repr(float(v)) for v in values) + "}"
 
 
 def _initializer(ctype: str, name: str, fields: list[tuple[str, str]]) -> str:
