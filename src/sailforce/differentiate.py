@@ -161,8 +161,10 @@ class RateTracker:
     def feed(self, t, q) -> tuple[np.ndarray, np.ndarray]:
         t = np.asarray(t, float).reshape(-1)
         q = np.asarray(q, float).reshape(t.size, -1)
-        self._t = np.concatenate([self._t, t])
-        self._q = q if self._q is None else np.concatenate([self._q, q])
+        if self._t.size:
+            self._t, self._q = np.concatenate([self._t, t]), np.concatenate([self._q, q])
+        else:  # nothing held: no copy
+            self._t, self._q = t, q
         if self.dt is None:
             steps = _valid_steps(self._t, self._q)
             if steps.size < PROBE_STEPS:
@@ -226,24 +228,24 @@ def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarra
     """
     half = width // 2
     n, k = stop - start, q.shape[1]
-    rate, accel = np.full((n, k), np.nan), np.full((n, k), np.nan)
-    centre = np.arange(start, stop)
-    inside = (centre - half >= 0) & (centre + half <= t.size - 1)
-    if not inside.any():
-        return rate, accel
+    # the rows whose window lies inside the buffer: centres lo..hi - 1, the window of centre c is [c - half, c + half]
+    lo, hi = max(start, half), min(stop, t.size - half)
+    if hi <= lo:
+        return np.full((n, k), np.nan), np.full((n, k), np.nan)
     cut = np.concatenate(([0], np.cumsum(~linked)))
     uneven = np.concatenate(([0], np.cumsum(np.abs(np.diff(t) - dt) > UNIFORM_RTOL * dt)))  # NaN compares False
-    lo, hi = np.clip(centre - half, 0, t.size - 1), np.clip(centre + half, 0, t.size - 1)
-    known = inside & (cut[hi] - cut[lo] == 0)
-    uniform = known & (uneven[hi] - uneven[lo] == 0)
-    rows = np.flatnonzero(uniform)
-    if rows.size:
-        first, last = int(centre[rows[0]]), int(centre[rows[-1]])
-        r, a = _uniform(q[first - half : last + half + 1], dt, width, order)
-        rate[rows], accel[rows] = r[centre[rows] - first], a[centre[rows] - first]
-    rows = np.flatnonzero(known & ~uniform)
-    if rows.size:
-        rate[rows], accel[rows] = _timestamp_fit(t, q, centre[rows], width, order)
+    known = cut[lo + half : hi + half] == cut[lo - half : hi - half]
+    uniform = known & (uneven[lo + half : hi + half] == uneven[lo - half : hi - half])
+    inner_rate, inner_accel = _uniform(q[lo - half : hi + half], dt, width, order)  # every inner row, then corrected
+    if not uniform.all():
+        inner_rate[~known], inner_accel[~known] = np.nan, np.nan
+        rows = np.flatnonzero(known & ~uniform)
+        if rows.size:
+            inner_rate[rows], inner_accel[rows] = _timestamp_fit(t, q, lo + rows, width, order)
+    if lo == start and hi == stop:
+        return inner_rate, inner_accel
+    rate, accel = np.full((n, k), np.nan), np.full((n, k), np.nan)
+    rate[lo - start : hi - start], accel[lo - start : hi - start] = inner_rate, inner_accel
     return rate, accel
 
 
