@@ -93,7 +93,6 @@ class MotionStage:
         self.shear_model = cal.dynamics.shear_model(cal.arm)
         self.tracker = RateTracker(cal.dynamics.differentiator, dt) if columns.derived else None
         self.pending: deque[tuple[Chunk, list[np.ndarray], list[np.ndarray]]] = deque()
-        self.waiting = 0  # rows of pending chunks without their rates yet
 
     def delay(self) -> int | None:
         """Rows a live stream's output lags its input (half a window; 0 with measured rates; None until known)."""
@@ -108,7 +107,6 @@ class MotionStage:
         t = np.where(chunk.malformed, np.nan, values[TIME_COLUMN])
         q = np.radians(np.column_stack([values["theta1_deg"], values["theta2_deg"]]))
         self.pending.append((chunk, [], []))
-        self.waiting += chunk.num_rows
         return self._take(*self.tracker.feed(t, q))
 
     def finish(self) -> list[tuple[Chunk, MotionRows]]:
@@ -131,7 +129,6 @@ class MotionStage:
             if take == need:
                 self.pending.popleft()
                 ready.append((chunk, self._rows(chunk, np.concatenate(rates), np.concatenate(accels))))
-        self.waiting -= used
         return ready
 
     def _rows(self, chunk: Chunk, rate: np.ndarray, accel: np.ndarray) -> MotionRows:
