@@ -33,12 +33,12 @@ from __future__ import annotations
 
 import math
 import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
+from ._blocks import for_each_block
 from .errors import SailError
 
 #: A time step longer than this many median steps is a gap: the recording stopped, or samples were lost.
@@ -294,13 +294,7 @@ def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarr
         np.matmul(block, first, out=rate[i : i + UNIFORM_BLOCK])
         np.matmul(block, second, out=accel[i : i + UNIFORM_BLOCK])
 
-    starts = range(0, windows.shape[0], UNIFORM_BLOCK)
-    if len(starts) > 1 and THREADS > 1:
-        with ThreadPoolExecutor(THREADS) as pool:
-            list(pool.map(run, starts))
-    else:
-        for i in starts:
-            run(i)
+    for_each_block(windows.shape[0], UNIFORM_BLOCK, THREADS, run)
     return rate, accel
 
 

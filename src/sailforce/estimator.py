@@ -23,10 +23,10 @@ MOTION_UNKNOWN, EXTRAPOLATED wins.
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ._blocks import for_each_block
 from .compensation import solve_sensing, torque_entries
 from .kinematics import sin_delta_from_trig
 from .statics import is_singular
@@ -96,13 +96,7 @@ def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, thre
         if inertial is not None:
             inertial[start:stop] = out[3]
 
-    starts = range(0, n, BLOCK)
-    if len(starts) > 1 and threads > 1:
-        with ThreadPoolExecutor(threads) as pool:
-            list(pool.map(run, starts))
-    else:
-        for start in starts:
-            run(start)
+    for_each_block(n, BLOCK, threads, run)
     return (fx.reshape(shape), fy.reshape(shape), status.reshape(shape),
             None if inertial is None else inertial.reshape(shape + (2,)))  # fmt: skip
 
