@@ -162,8 +162,8 @@ void sail_lowpass_process(sail_lowpass_state *state, sail_reading *block, size_t
  *        + k[1][4] cos theta2 + k[1][5] sin theta2
  * and F = M^-1 (s - offset) - w with J^T w = (l1 V1, l2 V2).
  * The rates are Savitzky-Golay fits over a centred window of 2 half + 1 samples: with the
- * window's angles x_i in counts (i = -half..half) and its moments T_k = sum_i i^k x_i,
- *   omega = rad_per_count * sum_k rate[k] T_k,   alpha = rad_per_count * sum_k accel[k] T_k
+ * window's angles x_j in counts (j = -half..half),
+ *   omega = rad_per_count * sum_j (sum_k rate[k] j^k) x_j   (alpha likewise with accel)
  * (sailforce.differentiate.kernel_polynomials). */
 typedef struct sail_dynamics {
     sail_real l1, l2;                         /* the cells' moment arms: link lengths [m] */
@@ -188,18 +188,24 @@ int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, 
 /* The causal rate filter and delay line: each reading comes out `half` samples after it went
  * in, when its centred window is complete (the same numbers as sailforce's offline
  * estimate, which centres the window on each sample).  Sampling must be uniform at dyn->dt.
- * The filter keeps exact integer moments of the window, updated in O(order^2) per reading
- * whatever the window's length. */
+ * The filter keeps exact integer moments of the window in the binomial basis,
+ *   U_k = sum_u C(u, k) x_u   (u = 0..2 half, oldest first),
+ * which slide by one sample in O(order) whatever the window's length (docs/dynamics.md).
+ * Every counter is bounded: the state runs for ever. */
 typedef struct {
     const sail_dynamics *dyn;
-    long pushed;                                    /* readings pushed since init */
-    long emitted;                                   /* readings returned since init */
-    long run;                                       /* readings since the last break (gap, invalid sample) */
-    double t_last;                                  /* time of the last reading [s] */
-    unsigned long long moment[2][SAIL_MAX_RATE_ORDER + 1];  /* T_k of each angle over the window, exact
-                                                       (modulo 2^64, so never overflowing) */
-    unsigned long long power_out[SAIL_MAX_RATE_ORDER + 1];  /* (-half - 1)^k and half^k, modulo 2^64 */
-    unsigned long long power_in[SAIL_MAX_RATE_ORDER + 1];
+    int width;                                      /* 2 half + 1 */
+    int slot;                                       /* the ring slot the next reading goes to */
+    int pending;                                    /* readings held, not yet returned */
+    int run;                                        /* readings since the last break (gap, invalid sample),
+                                                       counted up to width */
+    double t_last;                                  /* time of the last valid reading [s] */
+    double gap;                                     /* SAIL_GAP_FACTOR dt [s] */
+    double rate[SAIL_MAX_RATE_ORDER + 1];           /* the kernels in the binomial basis, in rad per count */
+    double accel[SAIL_MAX_RATE_ORDER + 1];
+    unsigned long long moment[2][SAIL_MAX_RATE_ORDER + 1];  /* U_k of each angle, exact (modulo 2^64, so
+                                                       never overflowing) */
+    unsigned long long entry[SAIL_MAX_RATE_ORDER + 1];      /* C(2 half + 1, k) */
     long counts[2 * SAIL_MAX_HALF_WINDOW + 1][2];   /* the window's angles in counts, a ring */
     sail_reading held[2 * SAIL_MAX_HALF_WINDOW + 1];  /* the window's readings, a ring */
 } sail_motion_state;

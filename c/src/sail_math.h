@@ -22,6 +22,14 @@
 
 #define SAIL_NAN ((sail_real)NAN)
 
+/* Inline whatever the compiler's size heuristics say: for the hot path's few call sites (cf. CMSIS's
+ * __STATIC_FORCEINLINE). */
+#if defined(__GNUC__)
+#define SAIL_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define SAIL_ALWAYS_INLINE inline
+#endif
+
 #if defined(SAIL_DOUBLE) || defined(SAIL_LIBM_TRIG)
 static inline void sail_sincos(sail_real x, sail_real *s, sail_real *c)
 {
@@ -48,14 +56,16 @@ static inline void sail_sincos(sail_real x, sail_real *s, sail_real *c)
 #define SAIL_2_OVER_PI 0.636619772367581343f
 #define SAIL_TWO_PI 6.28318530717958648f
 #define SAIL_TRIG_FOLD 65536.0f
+#define SAIL_ROUNDING_SHIFT 12582912.0f            /* 1.5 2^23 */
 
 static inline void sail_sincos(float x, float *s, float *c)
 {
-    float k, r, z, sr, cr;
+    float shifted, k, r, z, sr, cr;
     int q;
-    if (x > SAIL_TRIG_FOLD || x < -SAIL_TRIG_FOLD)
+    if (fabsf(x) > SAIL_TRIG_FOLD)
         x -= SAIL_TWO_PI * (float)(long)(x / SAIL_TWO_PI);
-    k = (float)(long)(x * SAIL_2_OVER_PI + (x < 0 ? -0.5f : 0.5f));  /* nearest integer */
+    shifted = x * SAIL_2_OVER_PI + SAIL_ROUNDING_SHIFT;  /* nearest integer: |x 2/pi| < 2^22, so the sum's */
+    k = shifted - SAIL_ROUNDING_SHIFT;                   /* unit is 1 (stored in a float: rounded even in excess precision) */
     r = ((x - k * SAIL_PIO2_1) - k * SAIL_PIO2_2) - k * SAIL_PIO2_3;
     z = r * r;
     sr = r + r * z * (-1.6666654611e-1f + z * (8.3321608736e-3f + z * -1.9515295891e-4f));
@@ -72,12 +82,8 @@ static inline void sail_sincos(float x, float *s, float *c)
 
 static inline int sail_finite4(const sail_reading *r)
 {
-    return isfinite(r->theta1) && isfinite(r->theta2) && isfinite(r->load1) && isfinite(r->load2);
+    /* x - x is 0 for a finite x and NaN for an infinite or NaN one, and NaN propagates through the sum */
+    return (r->theta1 - r->theta1) + (r->theta2 - r->theta2) + (r->load1 - r->load1) + (r->load2 - r->load2) == 0;
 }
-
-/* sail_estimate, also giving J^T, M and (sin th1, cos th1, sin th2, cos th2); jt and m are set
- * unless the status is SAIL_INVALID or SAIL_SINGULAR, trig unless SAIL_INVALID. */
-int sail_estimate_parts(const sail_calibration *cal, const sail_reading *in, sail_force *out, sail_real jt[2][2],
-                        sail_real m[2][2], sail_real trig[4]);
 
 #endif /* SAIL_MATH_H */

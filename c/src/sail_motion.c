@@ -5,11 +5,12 @@
  * see sail.h and docs/dynamics.md.
  */
 #include "sail.h"
-#include "sail_math.h"
+#include "sail_static.h"
 
-int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, const sail_reading *in,
-                         sail_real omega1, sail_real omega2, sail_real alpha1, sail_real alpha2,
-                         sail_force *out, sail_real inertial[2])
+/* The static estimate, and the dynamic term subtracted when the rates are `known` (then finite). */
+static SAIL_ALWAYS_INLINE int estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, const sail_reading *in, int known,
+                           sail_real omega1, sail_real omega2, sail_real alpha1, sail_real alpha2, sail_force *out,
+                           sail_real inertial[2])
 {
     sail_real jt[2][2], m[2][2], trig[4], sd, cd, w1, w2, v1, v2, b1, b2, det, wx, wy;
     const int status = sail_estimate_parts(cal, in, out, jt, m, trig);
@@ -19,7 +20,7 @@ int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, 
     }
     if (status == SAIL_INVALID || status == SAIL_SINGULAR)
         return status;
-    if (!(isfinite(omega1) && isfinite(omega2) && isfinite(alpha1) && isfinite(alpha2))) {
+    if (!known) {
         out->fx = SAIL_NAN;
         out->fy = SAIL_NAN;
         if (status != SAIL_SATURATED)
@@ -35,10 +36,10 @@ int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, 
          + dyn->k[0][3] * (w2 * cd - alpha2 * sd) + dyn->k[0][4] * trig[1] + dyn->k[0][5] * trig[0];
     v2 = dyn->k[1][0] * alpha2 + dyn->k[1][1] * w2 + dyn->k[1][2] * (alpha1 * cd - w1 * sd)
          + dyn->k[1][3] * (alpha1 * sd + w1 * cd) + dyn->k[1][4] * trig[3] + dyn->k[1][5] * trig[2];
-    /* J^T w = (l1 V1, l2 V2) by Cramer's rule; J^T is regular here (the pose is not singular) */
+    /* J^T w = (l1 V1, l2 V2) by Cramer's rule; det J^T = -l2 l3 sin(delta) (seed Eq. 9), not 0 here */
     b1 = dyn->l1 * v1;
     b2 = dyn->l2 * v2;
-    det = jt[0][0] * jt[1][1] - jt[0][1] * jt[1][0];
+    det = -cal->l2 * cal->l3 * sd;
     wx = (jt[1][1] * b1 - jt[0][1] * b2) / det;
     wy = (jt[0][0] * b2 - jt[1][0] * b1) / det;
     out->fx -= wx;
@@ -50,116 +51,160 @@ int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, 
     return status;
 }
 
+int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, const sail_reading *in,
+                         sail_real omega1, sail_real omega2, sail_real alpha1, sail_real alpha2,
+                         sail_force *out, sail_real inertial[2])
+{
+    const int known = isfinite(omega1) && isfinite(omega2) && isfinite(alpha1) && isfinite(alpha2);
+    return estimate_moving(cal, dyn, in, known, omega1, omega2, alpha1, alpha2, out, inertial);
+}
+
+/* C(n, k) for the small n and k here, exactly. */
+static unsigned long long binomial(int n, int k)
+{
+    unsigned long long c = 1;
+    int i;
+    for (i = 1; i <= k; i++)
+        c = c * (unsigned long long)(n - k + i) / (unsigned long long)i;  /* C(n-k+i, i), an integer at each step */
+    return c;
+}
+
+/* A kernel sum_m b[m] j^m over the window's offsets j = u - half, rewritten in the binomial basis C(u, k):
+ * its Newton forward differences at u = 0,  beta_k = sum_i (-1)^(k-i) C(k, i) w(i - half)  (exact for a polynomial of
+ * degree <= SAIL_MAX_RATE_ORDER), scaled by the count's angle. */
+static void binomial_kernel(const double b[SAIL_MAX_RATE_ORDER + 1], int half, double beta[SAIL_MAX_RATE_ORDER + 1])
+{
+    const double rad_per_count = 6.283185307179586 / SAIL_COUNTS_PER_TURN;
+    int k, i, m;
+    for (k = 0; k <= SAIL_MAX_RATE_ORDER; k++) {
+        double sum = 0;
+        for (m = 0; m <= SAIL_MAX_RATE_ORDER; m++) {
+            double difference = 0;  /* Delta^k (u - half)^m at u = 0: an integer, exact in double */
+            for (i = 0; i <= k; i++) {
+                const double j = (double)(i - half);
+                double power = 1;
+                int p;
+                for (p = 0; p < m; p++)
+                    power *= j;
+                difference += ((k - i) % 2 ? -1.0 : 1.0) * (double)binomial(k, i) * power;
+            }
+            sum += b[m] * difference;
+        }
+        beta[k] = rad_per_count * sum;
+    }
+}
+
 void sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn)
 {
     int i, k;
     state->dyn = dyn;
-    state->pushed = 0;
-    state->emitted = 0;
+    state->width = 2 * dyn->half + 1;
+    state->slot = 0;
+    state->pending = 0;
     state->run = 0;
     state->t_last = 0;
+    state->gap = SAIL_GAP_FACTOR * dyn->dt;
+    binomial_kernel(dyn->rate, dyn->half, state->rate);
+    binomial_kernel(dyn->accel, dyn->half, state->accel);
     for (k = 0; k <= SAIL_MAX_RATE_ORDER; k++) {
         state->moment[0][k] = state->moment[1][k] = 0;
-        state->power_out[k] = k ? state->power_out[k - 1] * (unsigned long long)(-(long long)dyn->half - 1) : 1;
-        state->power_in[k] = k ? state->power_in[k - 1] * (unsigned long long)dyn->half : 1;
+        state->entry[k] = binomial(state->width, k);
     }
     for (i = 0; i < 2 * SAIL_MAX_HALF_WINDOW + 1; i++)  /* the window starts full of zeros: its moments are 0 */
         state->counts[i][0] = state->counts[i][1] = 0;
 }
 
-/* Slide the window by one sample: x_old (offset -half) leaves, x_new (offset +half) enters:
- *   T_k' = sum_m (-1)^(k-m) C(k, m) T_m - (-half - 1)^k x_old + half^k x_new
- * written out to k = 4, in unsigned (modulo 2^64) arithmetic: exact, since every T_k fits in 64 bits.  power_out
- * and power_in hold (-half - 1)^k and half^k. */
-static void slide(unsigned long long t[SAIL_MAX_RATE_ORDER + 1], const unsigned long long power_out[],
-                  const unsigned long long power_in[], long x_old, long x_new)
+/* Slide the window by one sample: x_old (u = 0) leaves, the others move to u - 1, and x_new enters at u = 2 half.
+ * By Pascal's rule C(u - 1, k) = C(u, k) - C(u - 1, k - 1):
+ *   U_0' = U_0 - x_old + x_new,   U_k' = U_k - U_{k-1}' + C(2 half + 1, k) x_new   (k >= 1),
+ * in unsigned (modulo 2^64) arithmetic: exact, since every U_k fits in 64 bits. */
+static inline void slide(unsigned long long u[SAIL_MAX_RATE_ORDER + 1], const unsigned long long entry[], long x_old,
+                         long x_new)
 {
-    const unsigned long long o = (unsigned long long)(long long)x_old, n = (unsigned long long)(long long)x_new;
-    const unsigned long long t0 = t[0], t1 = t[1], t2 = t[2], t3 = t[3], t4 = t[4];
-    t[0] = t0 - o + n;
-    t[1] = t1 - t0 - power_out[1] * o + power_in[1] * n;
-    t[2] = t2 - 2 * t1 + t0 - power_out[2] * o + power_in[2] * n;
-    t[3] = t3 - 3 * t2 + 3 * t1 - t0 - power_out[3] * o + power_in[3] * n;
-    t[4] = t4 - 4 * t3 + 6 * t2 - 4 * t1 + t0 - power_out[4] * o + power_in[4] * n;
+    const unsigned long long n = (unsigned long long)(long long)x_new;
+    u[0] = u[0] - (unsigned long long)(long long)x_old + n;
+    u[1] = u[1] - u[0] + entry[1] * n;
+    u[2] = u[2] - u[1] + entry[2] * n;
+    u[3] = u[3] - u[2] + entry[3] * n;
+    u[4] = u[4] - u[3] + entry[4] * n;
 }
 
-/* sum_k b[k] T_k over the odd (rate) or even (acceleration) k, the moments read as signed 64-bit integers */
-static double odd_kernel(const double *b, const unsigned long long *t)
+/* The rate and the acceleration of one angle, sum_k beta[k] U_k with the moments read as signed 64-bit integers */
+static inline void rates(const sail_motion_state *state, const unsigned long long *u, sail_real *omega,
+                         sail_real *alpha)
 {
-    return b[1] * (double)(long long)t[1] + b[3] * (double)(long long)t[3];
+    const double u0 = (double)(long long)u[0], u1 = (double)(long long)u[1], u2 = (double)(long long)u[2],
+                 u3 = (double)(long long)u[3], u4 = (double)(long long)u[4];
+    const double *a = state->accel, *w = state->rate;
+    *omega = (sail_real)(w[0] * u0 + w[1] * u1 + w[2] * u2 + w[3] * u3 + w[4] * u4);
+    *alpha = (sail_real)(a[0] * u0 + a[1] * u1 + a[2] * u2 + a[3] * u3 + a[4] * u4);
 }
 
-static double even_kernel(const double *b, const unsigned long long *t)
-{
-    return b[0] * (double)(long long)t[0] + b[2] * (double)(long long)t[2] + b[4] * (double)(long long)t[4];
-}
-
-/* The estimate of reading i (the oldest not yet returned); `known`: its centred window is complete and linked,
- * and the moments are the window's. */
-static void emit(sail_motion_state *state, const sail_calibration *cal, long i, int known, sail_force *out,
+/* The estimate of the oldest reading held; `known`: its centred window is complete and linked, and the moments are
+ * the window's. */
+static void emit(sail_motion_state *state, const sail_calibration *cal, int known, sail_force *out,
                  sail_real inertial[2], sail_reading *held)
 {
-    const sail_dynamics *dyn = state->dyn;
-    const sail_reading *r = &state->held[i % (2 * dyn->half + 1)];
-    sail_real omega1 = SAIL_NAN, omega2 = SAIL_NAN, alpha1 = SAIL_NAN, alpha2 = SAIL_NAN;
+    int oldest = state->slot - state->pending;
+    const sail_reading *r;
+    sail_real omega1 = 0, omega2 = 0, alpha1 = 0, alpha2 = 0;
+    if (oldest < 0)
+        oldest += state->width;
+    r = &state->held[oldest];
+    state->pending--;
     if (held)
         *held = *r;
     if (known) {
-        const double scale = 6.283185307179586 / SAIL_COUNTS_PER_TURN;
-        omega1 = (sail_real)(scale * odd_kernel(dyn->rate, state->moment[0]));
-        omega2 = (sail_real)(scale * odd_kernel(dyn->rate, state->moment[1]));
-        alpha1 = (sail_real)(scale * even_kernel(dyn->accel, state->moment[0]));
-        alpha2 = (sail_real)(scale * even_kernel(dyn->accel, state->moment[1]));
+        rates(state, state->moment[0], &omega1, &alpha1);
+        rates(state, state->moment[1], &omega2, &alpha2);
     }
-    sail_estimate_moving(cal, dyn, r, omega1, omega2, alpha1, alpha2, out, inertial);
+    estimate_moving(cal, state->dyn, r, known, omega1, omega2, alpha1, alpha2, out, inertial);
 }
 
 /* An angle in whole counts; 0 (and *ok cleared) beyond +-2^31 counts (128 turns) or when not finite. */
-static long to_counts(sail_real theta, int *ok)
+static inline long to_counts(sail_real theta, int *ok)
 {
     const double x = (double)theta * (SAIL_COUNTS_PER_TURN / 6.283185307179586);
     if (!(x > -2147483647.0 && x < 2147483647.0)) {
         *ok = 0;
         return 0;
     }
-    return (long)(x < 0 ? x - 0.5 : x + 0.5);  /* nearest */
+    return (long)((long long)(x + 2147483648.5) - 2147483648LL);  /* nearest: floor(x + 1/2), truncating a positive */
 }
 
 int sail_motion_step(sail_motion_state *state, const sail_calibration *cal, double t, const sail_reading *in,
                      sail_force *out, sail_real inertial[2], sail_reading *held)
 {
-    const sail_dynamics *dyn = state->dyn;
-    const int width = 2 * dyn->half + 1;
-    const int slot = (int)(state->pushed % width);
+    const int slot = state->slot;
     int valid = isfinite(t);
     const long x1 = to_counts(in->theta1, &valid), x2 = to_counts(in->theta2, &valid);
     const double step = t - state->t_last;
     if (!valid)
         state->run = 0;  /* an invalid reading cuts the window on both sides */
-    else if (state->run > 0 && step > 0 && step <= SAIL_GAP_FACTOR * dyn->dt)
-        state->run++;
+    else if (state->run > 0 && step > 0 && step <= state->gap)
+        state->run += state->run < state->width;
     else
         state->run = 1;  /* a gap, a step back in time, or the first reading after a cut */
     if (valid)
         state->t_last = t;
     /* the slot being overwritten holds the window's oldest sample: it leaves as the new one enters */
-    slide(state->moment[0], state->power_out, state->power_in, state->counts[slot][0], x1);
-    slide(state->moment[1], state->power_out, state->power_in, state->counts[slot][1], x2);
+    slide(state->moment[0], state->entry, state->counts[slot][0], x1);
+    slide(state->moment[1], state->entry, state->counts[slot][1], x2);
     state->counts[slot][0] = x1;
     state->counts[slot][1] = x2;
     state->held[slot] = *in;
-    state->pushed++;
-    if (state->pushed - state->emitted <= dyn->half)
+    state->slot = slot + 1 == state->width ? 0 : slot + 1;
+    if (++state->pending <= state->dyn->half)
         return 0;
-    emit(state, cal, state->emitted++, state->run >= width, out, inertial, held);
+    emit(state, cal, state->run == state->width, out, inertial, held);
     return 1;
 }
 
 int sail_motion_flush(sail_motion_state *state, const sail_calibration *cal, sail_force *out, sail_real inertial[2],
                       sail_reading *held)
 {
-    if (state->emitted >= state->pushed)
+    if (state->pending <= 0)
         return 0;
-    emit(state, cal, state->emitted++, 0, out, inertial, held);
+    emit(state, cal, 0, out, inertial, held);
     return 1;
 }
