@@ -192,7 +192,7 @@ class RateTracker:
     def _emit(self, final: bool) -> tuple[np.ndarray, np.ndarray]:
         t, q, dt, width = self._t, self._q, self.dt, self.width
         half, m = width // 2, t.size
-        valid = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
+        valid = _valid_rows(t, q)
         steps = np.diff(t)
         with np.errstate(invalid="ignore"):
             linked = valid[1:] & valid[:-1] & (steps > 0) & (steps <= GAP_FACTOR * dt)
@@ -211,8 +211,16 @@ class RateTracker:
         return rate, accel
 
 
+def _valid_rows(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Rows whose time and angles are all finite (column by column: ``all(axis=1)`` over two columns is ten times slower)."""
+    valid = np.isfinite(t)
+    for column in q.T:
+        valid &= np.isfinite(column)
+    return valid
+
+
 def _valid_steps(t: np.ndarray, q: np.ndarray) -> np.ndarray:
-    valid = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
+    valid = _valid_rows(t, q)
     steps = np.diff(t)[valid[1:] & valid[:-1]]
     return steps[steps > 0]
 
@@ -232,12 +240,14 @@ def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarra
     lo, hi = max(start, half), min(stop, t.size - half)
     if hi <= lo:
         return np.full((n, k), np.nan), np.full((n, k), np.nan)
-    cut = np.concatenate(([0], np.cumsum(~linked)))
-    uneven = np.concatenate(([0], np.cumsum(np.abs(np.diff(t) - dt) > UNIFORM_RTOL * dt)))  # NaN compares False
-    known = cut[lo + half : hi + half] == cut[lo - half : hi - half]
-    uniform = known & (uneven[lo + half : hi + half] == uneven[lo - half : hi - half])
+    jitter = np.abs(np.diff(t) - dt) > UNIFORM_RTOL * dt  # NaN compares False
     inner_rate, inner_accel = _uniform(q[lo - half : hi + half], dt, width, order)  # every inner row, then corrected
-    if not uniform.all():
+    if not linked.all() or jitter.any():  # else the common case: every window known and uniform
+        # a window is cut (or uneven) when a cut (or uneven) step lies between its ends: counted by cumulative sums
+        cut = np.concatenate(([0], np.cumsum(~linked)))
+        uneven = np.concatenate(([0], np.cumsum(jitter)))
+        known = cut[lo + half : hi + half] == cut[lo - half : hi - half]
+        uniform = known & (uneven[lo + half : hi + half] == uneven[lo - half : hi - half])
         inner_rate[~known], inner_accel[~known] = np.nan, np.nan
         rows = np.flatnonzero(known & ~uniform)
         if rows.size:

@@ -239,13 +239,40 @@ class ShearModel:
 
     def shears(self, theta1, theta2, omega1, omega2, alpha1, alpha2) -> np.ndarray:
         """``(..., 2)``: the cells' dynamic shears [N] (angles [rad], rates [rad/s], accelerations [rad/s^2])."""
-        (a, b, c, d, e, f), (g, h, i, j, k, m) = self.coefficients
-        delta = theta1 - theta2
-        cd, sd = np.cos(delta), np.sin(delta)
-        w1, w2 = omega1 * omega1, omega2 * omega2
-        v1 = a * alpha1 + b * w1 + c * (alpha2 * cd + w2 * sd) + d * (w2 * cd - alpha2 * sd) + e * np.cos(theta1) + f * np.sin(theta1)
-        v2 = g * alpha2 + h * w2 + i * (alpha1 * cd - w1 * sd) + j * (alpha1 * sd + w1 * cd) + k * np.cos(theta2) + m * np.sin(theta2)
+        theta1, theta2 = np.asarray(theta1, dtype=float), np.asarray(theta2, dtype=float)
+        v1, v2 = self.shears_from_trig(np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2),
+                                       omega1, omega2, alpha1, alpha2)  # fmt: skip
         return np.stack([v1, v2], axis=-1)
+
+    def shears_from_trig(self, sin1, cos1, sin2, cos2, omega1, omega2, alpha1, alpha2) -> tuple[np.ndarray, np.ndarray]:
+        """``(V1, V2)`` from the joint angles' sines and cosines (as the estimator has them), in place where it can.
+
+        ``sin(delta)`` and ``cos(delta)`` come from the angle-difference
+        identities, as in libsail's ``sail_estimate_moving``.
+        """
+        (a, b, c, d, e, f), (g, h, i, j, k, m) = self.coefficients
+        sd = sin1 * cos2
+        sd -= cos1 * sin2
+        cd = cos1 * cos2
+        cd += sin1 * sin2
+        w1, w2 = np.square(omega1), np.square(omega2)
+        # V1 = a α1 + b w1 + c (α2 cd + w2 sd) + d (w2 cd - α2 sd) + e cos θ1 + f sin θ1  (docs/dynamics.md, Eq. D1)
+        #    = a α1 + b w1 + (c cd - d sd) α2 + (c sd + d cd) w2 + e cos θ1 + f sin θ1
+        v1 = a * alpha1
+        v1 += b * w1
+        v1 += (c * cd - d * sd) * alpha2
+        v1 += (c * sd + d * cd) * w2
+        v1 += e * cos1
+        v1 += f * sin1
+        # V2 = g α2 + h w2 + i (α1 cd - w1 sd) + j (α1 sd + w1 cd) + k cos θ2 + m sin θ2  (Eq. D2)
+        #    = g α2 + h w2 + (i cd + j sd) α1 + (j cd - i sd) w1 + k cos θ2 + m sin θ2
+        v2 = g * alpha2
+        v2 += h * w2
+        v2 += (i * cd + j * sd) * alpha1
+        v2 += (j * cd - i * sd) * w1
+        v2 += k * cos2
+        v2 += m * sin2
+        return v1, v2
 
 
 @dataclass(frozen=True)

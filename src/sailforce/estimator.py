@@ -84,7 +84,7 @@ def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, thre
     threads = THREADS if threads is None else threads
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in arrays))
     shape = arrays[0].shape
-    flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
+    flat = [a.reshape(-1) for a in arrays]  # a view where it can be (a column of an (n, 2) table is one): blocks are sliced
     n = flat[0].size
     fx, fy, status = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
     inertial = np.empty((n, 2)) if shear_model is not None else None
@@ -94,7 +94,7 @@ def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, thre
         out = _estimate_block(model, offsets, capacity, delta_range, shear_model, *(a[start:stop] for a in flat))
         fx[start:stop], fy[start:stop], status[start:stop] = out[:3]
         if inertial is not None:
-            inertial[start:stop] = out[3]
+            inertial[start:stop, 0], inertial[start:stop, 1] = out[3]
 
     for_each_block(n, BLOCK, threads, run)
     return (fx.reshape(shape), fy.reshape(shape), status.reshape(shape),
@@ -121,16 +121,18 @@ def _estimate_block(model, offsets, capacity, delta_range, shear_model, theta1, 
     status[extrapolated] = EXTRAPOLATED
     inertial = None
     if shear_model is not None:
-        omega1, omega2, alpha1, alpha2 = motion
-        unknown = ~(np.isfinite(omega1) & np.isfinite(omega2) & np.isfinite(alpha1) & np.isfinite(alpha2))
-        v = shear_model.shears(theta1, theta2, omega1, omega2, alpha1, alpha2)
-        l1, l2 = model.arm.l1, model.arm.l2
-        wx, wy = solve_sensing(jt, l1 * v[:, 0], l2 * v[:, 1], singular)  # J^T w = diag(l) V
-        fx, fy = fx - wx, fy - wy
-        inertial = np.stack([m[0] * wx + m[1] * wy, m[2] * wx + m[3] * wy], axis=-1)
-        inertial[unknown | invalid] = np.nan
+        v1, v2 = shear_model.shears_from_trig(sin1, cos1, sin2, cos2, *motion)
+        # V1 takes every rate and acceleration, and NaN or inf * 0 is NaN: not finite where the motion is unknown
+        unknown = ~np.isfinite(v1)
+        v1 *= model.arm.l1
+        v2 *= model.arm.l2
+        wx, wy = solve_sensing(jt, v1, v2, singular)  # J^T w = diag(l) V
+        fx -= wx
+        fy -= wy
+        inertial = (m[0] * wx + m[1] * wy, m[2] * wx + m[3] * wy)
+        if invalid.any():
+            inertial[0][invalid], inertial[1][invalid] = np.nan, np.nan
         status[unknown] = MOTION_UNKNOWN
-        fx[unknown], fy[unknown] = np.nan, np.nan
     status[saturated] = SATURATED
     status[singular] = SINGULAR
     status[invalid] = INVALID

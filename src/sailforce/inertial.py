@@ -168,7 +168,7 @@ def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2, *, 
     """
     from .estimator import estimate_moving as run
 
-    q = np.column_stack([theta1, theta2]).astype(float)
+    q = np.column_stack([np.asarray(theta1, dtype=float), np.asarray(theta2, dtype=float)])  # one copy
     qd, qdd = motion_states(term, t, q, dt=dt) if rates is None else rates
     return run(cal.model, cal.offsets, cal.capacity, cal.delta_range, term.shear_model(cal.arm), q[:, 0], q[:, 1],
                qd[:, 0], qd[:, 1], qdd[:, 0], qdd[:, 1], load1, load2)  # fmt: skip
