@@ -166,6 +166,37 @@ def test_force_error_in_motion(session):
     assert np.isnan(inertial[:50]).all() and np.isfinite(inertial[50:-50]).all()
 
 
+@pytest.mark.parametrize("dt", [None, 1e-3])
+def test_offline_blocks_equal_the_tracker(session, dt):
+    """The offline estimate computes each block's rates where it estimates it (RatePlan): the very numbers of
+    the tracker's rates (one pass, as `sail estimate` streams them) fed to the estimator, across gaps, invalid
+    angles and jittered steps, and across the estimator's block edges."""
+    from sailforce.estimator import BLOCK
+    from sailforce.estimator import estimate_moving as estimate_with_rates
+    from sailforce.inertial import motion_states
+
+    _, cal, free, task = session
+    fit = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1])
+    reps = -(-3 * BLOCK // task.t.size)
+    n = 3 * BLOCK + 77
+    t = (np.arange(reps * task.t.size)[:n] * 1e-3).copy()
+    theta = np.tile(task.theta, (reps, 1))[:n].copy()
+    loads = np.tile(task.loads, (reps, 1))[:n]
+    t[BLOCK - 10 :] += 0.2  # a gap just before a block edge
+    theta[2 * BLOCK + 3, 1] = np.nan  # an invalid angle just after one
+    t[2 * BLOCK + 500] += 2e-7  # a jittered step: the timestamp fit
+    got = estimate_moving(cal, fit.term, t, theta[:, 0], theta[:, 1], loads[:, 0], loads[:, 1], dt=dt)
+    rate, accel = motion_states(fit.term, t, theta, dt=dt)
+    want = estimate_with_rates(cal.model, cal.offsets, cal.capacity, cal.delta_range, fit.term.shear_model(cal.arm),
+                               theta[:, 0], theta[:, 1], rate[:, 0], rate[:, 1], accel[:, 0], accel[:, 1],
+                               loads[:, 0], loads[:, 1])  # fmt: skip
+    for a, b in zip(got, want):
+        np.testing.assert_array_equal(a, b)
+    unknown = got[2] == MOTION_UNKNOWN
+    assert unknown[BLOCK - 10 - 50 : BLOCK - 10 + 50].all() and unknown[2 * BLOCK + 3 - 50 : 2 * BLOCK + 3 + 51].sum() == 100
+    assert (got[2] == OK).sum() > n - 400
+
+
 def test_too_little_excitation_is_refused(session):
     _, cal, free, _ = session
     still = slice(2000, 2290)  # a dwell: the arm at rest

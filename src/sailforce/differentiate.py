@@ -118,6 +118,55 @@ def derivatives(t, q, differentiator: Differentiator = Differentiator(), *, dt: 
     return tuple(np.concatenate([p[i] for p in parts]) for i in range(2))  # type: ignore[return-value]
 
 
+@dataclass(frozen=True)
+class RatePlan:
+    """A whole recording's rates, computable block by block: the numbers :class:`RateTracker` gives, in any order.
+
+    Each sample's values depend on its own window alone, so a block of rows
+    needs only the samples half a window either side of it.  The offline
+    estimate (:func:`sailforce.inertial.estimate_moving`) computes each
+    block's rates in the thread that then estimates the block's forces,
+    while they are still in the cache.  ``dt`` is ``None`` when no
+    sampling period can be found (no two valid samples in a row): every
+    value is then NaN, as the tracker gives.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    dt: float | None
+    width: int
+    order: int
+    linked: np.ndarray
+
+    @classmethod
+    def of(cls, t, q, differentiator: Differentiator = Differentiator(), dt: float | None = None) -> RatePlan:
+        """The plan for angles ``q`` ``(n, k)`` at times ``t``; the period as :class:`RateTracker` chooses it."""
+        t = np.asarray(t, float).reshape(-1)
+        q = np.asarray(q, float).reshape(t.size, -1)
+        if dt is None:
+            steps = _valid_steps(t, q)
+            dt = float(np.median(steps[:PROBE_STEPS])) if steps.size else None
+        elif not (math.isfinite(dt) and dt > 0):
+            raise MotionDataError(f"sampling period {dt!r} s must be a positive time")
+        if dt is None:
+            return cls(t, q, None, 1, differentiator.order, np.zeros(max(t.size - 1, 0), dtype=bool))
+        valid = _valid_rows(t, q)
+        with np.errstate(invalid="ignore"):
+            steps = np.diff(t)
+            linked = valid[1:] & valid[:-1] & (steps > 0) & (steps <= GAP_FACTOR * dt)
+        return cls(t, q, dt, differentiator.window(dt), differentiator.order, linked)
+
+    def block(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(rate, acceleration)`` of rows ``start:stop``, each ``(stop - start, k)``; NaN where unknown."""
+        if self.dt is None:
+            shape = (stop - start, self.q.shape[1])
+            return np.full(shape, np.nan), np.full(shape, np.nan)
+        half = self.width // 2
+        lo, hi = max(start - half, 0), min(stop + half, self.t.size)
+        return _window_fits(self.t[lo:hi], self.q[lo:hi], self.linked[lo : max(hi - 1, lo)], self.dt, self.width,
+                            self.order, start - lo, stop - lo, threads=1)  # fmt: skip
+
+
 class RateTracker:
     """Rates and accelerations of a stream of samples fed in blocks of any size: the same numbers as one pass.
 
@@ -225,7 +274,7 @@ def _valid_steps(t: np.ndarray, q: np.ndarray) -> np.ndarray:
     return steps[steps > 0]
 
 
-def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarray, np.ndarray]:
+def _window_fits(t, q, linked, dt, width, order, start, stop, threads=THREADS) -> tuple[np.ndarray, np.ndarray]:
     """Rates and accelerations of samples ``start:stop`` from their centred windows; NaN where a window is cut.
 
     A window is known when its ``width - 1`` steps are all linked; the
@@ -241,7 +290,7 @@ def _window_fits(t, q, linked, dt, width, order, start, stop) -> tuple[np.ndarra
     if hi <= lo:
         return np.full((n, k), np.nan), np.full((n, k), np.nan)
     jitter = np.abs(np.diff(t) - dt) > UNIFORM_RTOL * dt  # NaN compares False
-    inner_rate, inner_accel = _uniform(q[lo - half : hi + half], dt, width, order)  # every inner row, then corrected
+    inner_rate, inner_accel = _uniform(q[lo - half : hi + half], dt, width, order, threads)  # every inner row, corrected below
     if not linked.all() or jitter.any():  # else the common case: every window known and uniform
         # a window is cut (or uneven) when a cut (or uneven) step lies between its ends: counted by cumulative sums
         cut = np.concatenate(([0], np.cumsum(~linked)))
@@ -293,8 +342,8 @@ def _coefficients(width: int, order: int, dt: float) -> tuple[np.ndarray, np.nda
     return powers @ b_rate, powers @ b_accel
 
 
-def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Savitzky-Golay rate and acceleration of each full window of ``q``, in blocks on :data:`THREADS` threads."""
+def _uniform(q: np.ndarray, dt: float, width: int, order: int, threads: int = THREADS) -> tuple[np.ndarray, np.ndarray]:
+    """Savitzky-Golay rate and acceleration of each full window of ``q``, in blocks on ``threads`` threads."""
     windows = np.lib.stride_tricks.sliding_window_view(q, width, axis=0)  # (n - width + 1, k, width)
     first, second = _coefficients(width, order, dt)
     rate, accel = np.empty(windows.shape[:2]), np.empty(windows.shape[:2])
@@ -304,7 +353,7 @@ def _uniform(q: np.ndarray, dt: float, width: int, order: int) -> tuple[np.ndarr
         np.matmul(block, first, out=rate[i : i + UNIFORM_BLOCK])
         np.matmul(block, second, out=accel[i : i + UNIFORM_BLOCK])
 
-    for_each_block(windows.shape[0], UNIFORM_BLOCK, THREADS, run)
+    for_each_block(windows.shape[0], UNIFORM_BLOCK, threads, run)
     return rate, accel
 
 

@@ -76,11 +76,26 @@ def estimate_moving(model, offsets, capacity, delta_range, shear_model, theta1, 
     and fx, fy and inertial are NaN.  Saturation is judged on the raw
     readings: the cell carries the inertial load too.
     """
-    arrays = (theta1, theta2, load1, load2, omega1, omega2, alpha1, alpha2)
-    return _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, threads)
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in
+                                   (theta1, theta2, load1, load2, omega1, omega2, alpha1, alpha2)))  # fmt: skip
+    motion = [a.reshape(-1) for a in arrays[4:]]
+    return estimate_moving_blocks(model, offsets, capacity, delta_range, shear_model, *arrays[:4],
+                                  lambda start, stop: [a[start:stop] for a in motion], threads=threads)  # fmt: skip
 
 
-def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, threads):
+def estimate_moving_blocks(model, offsets, capacity, delta_range, shear_model, theta1, theta2, load1, load2, motion,
+                           *, threads: int | None = None):  # fmt: skip
+    """:func:`estimate_moving` with the motion computed block by block: ``motion(start, stop)`` gives
+    ``(omega1, omega2, alpha1, alpha2)`` of the flattened readings ``start:stop``.
+
+    Each block's motion is computed in the thread that estimates the block,
+    while its readings are in the cache (:class:`sailforce.differentiate.RatePlan`).
+    """
+    return _run_blocks(model, offsets, capacity, delta_range, (theta1, theta2, load1, load2), shear_model, threads,
+                       motion)  # fmt: skip
+
+
+def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, threads, motion=None):
     threads = THREADS if threads is None else threads
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in arrays))
     shape = arrays[0].shape
@@ -91,7 +106,8 @@ def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, thre
 
     def run(start: int) -> None:
         stop = min(start + BLOCK, n)
-        out = _estimate_block(model, offsets, capacity, delta_range, shear_model, *(a[start:stop] for a in flat))
+        rates = motion(start, stop) if shear_model is not None else ()
+        out = _estimate_block(model, offsets, capacity, delta_range, shear_model, *(a[start:stop] for a in flat), *rates)
         fx[start:stop], fy[start:stop], status[start:stop] = out[:3]
         if inertial is not None:
             inertial[start:stop, 0], inertial[start:stop, 1] = out[3]

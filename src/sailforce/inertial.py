@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compensation import solve_sensing, torque_entries
-from .differentiate import Differentiator, MotionDataError, RateTracker, derivatives, sampling_period
+from .differentiate import Differentiator, MotionDataError, RatePlan, RateTracker, derivatives, sampling_period
 from .dynamics import PARAMETERS, ShearModel, base_parameters, shear_regressor
 
 #: Largest condition number of the (column-scaled) identification problem: beyond it some base parameter
@@ -167,11 +167,22 @@ def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2, *, 
     outranks it.
     """
     from .estimator import estimate_moving as run
+    from .estimator import estimate_moving_blocks
 
     q = np.column_stack([np.asarray(theta1, dtype=float), np.asarray(theta2, dtype=float)])  # one copy
-    qd, qdd = motion_states(term, t, q, dt=dt) if rates is None else rates
-    return run(cal.model, cal.offsets, cal.capacity, cal.delta_range, term.shear_model(cal.arm), q[:, 0], q[:, 1],
-               qd[:, 0], qd[:, 1], qdd[:, 0], qdd[:, 1], load1, load2)  # fmt: skip
+    shear_model = term.shear_model(cal.arm)
+    if rates is not None:
+        qd, qdd = rates
+        return run(cal.model, cal.offsets, cal.capacity, cal.delta_range, shear_model, q[:, 0], q[:, 1],
+                   qd[:, 0], qd[:, 1], qdd[:, 0], qdd[:, 1], load1, load2)  # fmt: skip
+    plan = RatePlan.of(t, q, term.differentiator, dt)  # the rates of each block computed where it is estimated
+
+    def motion(start: int, stop: int):
+        rate, accel = plan.block(start, stop)
+        return rate[:, 0], rate[:, 1], accel[:, 0], accel[:, 1]
+
+    return estimate_moving_blocks(cal.model, cal.offsets, cal.capacity, cal.delta_range, shear_model, q[:, 0], q[:, 1],
+                                  load1, load2, motion)  # fmt: skip
 
 
 def prior_term(robot, differentiator: Differentiator = Differentiator()) -> DynamicTerm:
