@@ -9,7 +9,7 @@ VECTORS := $(BUILD)/vectors
 #: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
 EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
 
-.PHONY: demo test c-test c-default cross bench fuzz install clean
+.PHONY: demo test c-test c-default cross cross-test arm-toolchain qemu-arm bench fuzz install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -37,16 +37,33 @@ c-test: $(STAMP)
 	  ctest --test-dir $(BUILD)/c-$$real --output-on-failure || exit 1; \
 	done
 
-# libsail and the sketch for Cortex-M4F (-Os), installing Debian's toolchain if missing; prints the code size.
-cross:
+# Debian packages for the Cortex-M builds, installed when missing (as root, or through sudo).
+APT := $$([ "$$(id -u)" = 0 ] || echo sudo) env DEBIAN_FRONTEND=noninteractive apt-get
+arm-toolchain:
 	@command -v arm-none-eabi-gcc > /dev/null || { \
 	  echo "installing gcc-arm-none-eabi and libnewlib-arm-none-eabi (Debian)"; \
-	  $$([ "$$(id -u)" = 0 ] || echo sudo) apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $$([ "$$(id -u)" = 0 ] || echo sudo) apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi > /dev/null; }
+	  $(APT) update -qq && $(APT) install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi > /dev/null; }
+
+qemu-arm:
+	@command -v qemu-system-arm > /dev/null || { \
+	  echo "installing qemu-system-arm (Debian)"; \
+	  $(APT) update -qq && $(APT) install -y -qq qemu-system-arm > /dev/null; }
+
+# libsail and the sketch for Cortex-M4F (-Os), installing Debian's toolchain if missing; prints the code size.
+cross: arm-toolchain
 	cmake -S c -B $(BUILD)/cross -DCMAKE_TOOLCHAIN_FILE=cmake/cortex-m4f.cmake -DCMAKE_BUILD_TYPE=MinSizeRel \
 	      -DSAIL_BUILD_TESTS=OFF -DSAIL_BUILD_EXAMPLES=OFF -DSAIL_BUILD_FIRMWARE=ON > /dev/null
 	cmake --build $(BUILD)/cross -j 2 > /dev/null
 	python3 c/firmware/report_size.py $(BUILD)/cross
+
+# libsail's tests on an emulated Cortex-M4F (QEMU's mps2-an386), built as `make cross` builds (-Os, hard float,
+# newlib-nano): the shared vectors and the API and sketch-logic tests, each killed after 120 s.
+cross-test: $(STAMP) arm-toolchain qemu-arm
+	$(PY) c/tests/make_vectors.py $(VECTORS)
+	cmake -S c -B $(BUILD)/cross-test -DCMAKE_TOOLCHAIN_FILE=cmake/cortex-m4f-qemu.cmake -DCMAKE_BUILD_TYPE=MinSizeRel \
+	      -DSAIL_BUILD_EXAMPLES=OFF -DSAIL_VECTORS_DIR=$(abspath $(VECTORS)) > /dev/null
+	cmake --build $(BUILD)/cross-test -j 2 > /dev/null
+	ctest --test-dir $(BUILD)/cross-test --output-on-failure
 
 bench: $(STAMP)
 	$(PY) bench/run.py
