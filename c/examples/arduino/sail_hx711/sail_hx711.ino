@@ -12,6 +12,7 @@
  *      `sail export-c cal.json -o sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80`
  *      and put sail_calibration.h beside this sketch.
  *   2. Copy c/include/sail.h and c/src/ into the sketch folder (or install libsail as a library).
+ *      sail_io.c and sail_io.h (the HX711 and encoder logic, tested on an emulated Cortex-M4) are here.
  *   3. Set the pins, encoder resolution and zero angles below.
  * At power-up the arm must hang free: the first TARE_SAMPLES readings set the offsets.
  */
@@ -20,15 +21,17 @@
 
 #include "sail.h"
 #include "sail_calibration.h"
+#include "sail_io.h"
 
-/* Wiring: HX711 data and clock pins, encoder channels (A on an interrupt pin). */
+/* Wiring: HX711 data and clock pins, encoder channels (A and B both on change-interrupt pins). */
 static const uint8_t HX1_DOUT = 2, HX1_SCK = 3;
 static const uint8_t HX2_DOUT = 4, HX2_SCK = 5;
 static const uint8_t ENC1_A = 6, ENC1_B = 7;
 static const uint8_t ENC2_A = 8, ENC2_B = 9;
 
-/* Encoder counts per shaft revolution with A-edge (x2) decoding, and the joint angle at count 0 [rad]. */
-static const float COUNTS_PER_REV = 2.0f * 2048.0f;
+/* Encoder counts per shaft revolution with x4 decoding (every edge of A and B), and the joint angle
+ * at count 0 [rad]. */
+static const float COUNTS_PER_REV = 4.0f * 2048.0f;
 static const float THETA1_ZERO_RAD = 1.5707963f;  /* link 1 vertical at start-up */
 static const float THETA2_ZERO_RAD = 0.0f;        /* link 2 horizontal */
 static const float TWO_PI_F = 6.2831853f;
@@ -36,38 +39,36 @@ static const float TWO_PI_F = 6.2831853f;
 static const unsigned int TARE_SAMPLES = 80;  /* one second at the HX711's 80 SPS */
 static const unsigned long HX711_TIMEOUT_US = 200000;
 
-static volatile long encoder1 = 0, encoder2 = 0;
+static sail_quadrature encoder1, encoder2;
 static sail_calibration cal;        /* RAM copy of sail_cal, re-tared at start-up */
 static sail_lowpass_state lowpass;
-static const char *const STATUS_NAMES[] = {"ok", "singular", "saturated", "extrapolated", "invalid"};
+static const char *const STATUS_NAMES[] = {"ok", "singular", "saturated", "extrapolated", "invalid", "motion-unknown"};
 
-static void encoder1_edge(void) { encoder1 += (digitalRead(ENC1_A) == digitalRead(ENC1_B)) ? 1 : -1; }
-static void encoder2_edge(void) { encoder2 += (digitalRead(ENC2_A) == digitalRead(ENC2_B)) ? 1 : -1; }
+static void encoder1_edge(void) { sail_quadrature_update(&encoder1, digitalRead(ENC1_A), digitalRead(ENC1_B)); }
+static void encoder2_edge(void) { sail_quadrature_update(&encoder2, digitalRead(ENC2_A), digitalRead(ENC2_B)); }
+
+/* An HX711's pins for sail_io: the context is the pin pair. */
+struct hx711_pins { uint8_t dout, sck; };
+static int hx711_dout(void *context) { return digitalRead(((struct hx711_pins *)context)->dout) == HIGH; }
+static void hx711_sck(void *context, int level)
+{
+    digitalWrite(((struct hx711_pins *)context)->sck, level ? HIGH : LOW);
+    delayMicroseconds(1);
+}
+static unsigned long hx711_micros(void *context) { (void)context; return micros(); }
 
 /* One 24-bit conversion, channel A at gain 128; NaN if the HX711 is not ready in time. */
 static float hx711_read(uint8_t dout, uint8_t sck)
 {
-    const unsigned long start = micros();
-    long value = 0;
-    int i;
-    while (digitalRead(dout) == HIGH)
-        if (micros() - start > HX711_TIMEOUT_US)
-            return NAN;
+    struct hx711_pins pins = {dout, sck};
+    const sail_hx711_port port = {&pins, hx711_dout, hx711_sck, hx711_micros};
+    uint32_t bits;
+    if (sail_hx711_wait(&port, HX711_TIMEOUT_US) != 0)
+        return NAN;
     noInterrupts();  /* SCK high for more than 60 us powers the HX711 down */
-    for (i = 0; i < 24; i++) {
-        digitalWrite(sck, HIGH);
-        delayMicroseconds(1);
-        value = (value << 1) | digitalRead(dout);
-        digitalWrite(sck, LOW);
-        delayMicroseconds(1);
-    }
-    digitalWrite(sck, HIGH);  /* 25th pulse: next conversion channel A, gain 128 */
-    delayMicroseconds(1);
-    digitalWrite(sck, LOW);
+    bits = sail_hx711_shift(&port, SAIL_HX711_A128);
     interrupts();
-    if (value & 0x800000L)
-        value -= 0x1000000L;  /* two's complement */
-    return (float)value;
+    return (float)sail_hx711_decode(bits);
 }
 
 static sail_reading read_sensors(void)
@@ -75,8 +76,8 @@ static sail_reading read_sensors(void)
     sail_reading r;
     long c1, c2;
     noInterrupts();
-    c1 = encoder1;
-    c2 = encoder2;
+    c1 = encoder1.count;
+    c2 = encoder2.count;
     interrupts();
     r.theta1 = THETA1_ZERO_RAD + TWO_PI_F * (float)c1 / COUNTS_PER_REV;
     r.theta2 = THETA2_ZERO_RAD + TWO_PI_F * (float)c2 / COUNTS_PER_REV;
@@ -99,8 +100,12 @@ void setup(void)
     pinMode(ENC1_B, INPUT_PULLUP);
     pinMode(ENC2_A, INPUT_PULLUP);
     pinMode(ENC2_B, INPUT_PULLUP);
+    sail_quadrature_init(&encoder1, digitalRead(ENC1_A), digitalRead(ENC1_B));
+    sail_quadrature_init(&encoder2, digitalRead(ENC2_A), digitalRead(ENC2_B));
     attachInterrupt(digitalPinToInterrupt(ENC1_A), encoder1_edge, CHANGE);
+    attachInterrupt(digitalPinToInterrupt(ENC1_B), encoder1_edge, CHANGE);
     attachInterrupt(digitalPinToInterrupt(ENC2_A), encoder2_edge, CHANGE);
+    attachInterrupt(digitalPinToInterrupt(ENC2_B), encoder2_edge, CHANGE);
 
     cal = sail_cal;
     sail_tare_init(&tare);
@@ -119,6 +124,14 @@ void loop(void)
     sail_reading r = read_sensors();
     const sail_reading raw = r;
     sail_force f;
+    static uint32_t missed_reported = 0;
+    const uint32_t missed = encoder1.missed + encoder2.missed;  /* a torn read only delays the note */
+    if (missed != missed_reported) {  /* an edge came faster than the interrupt: the angle may be 2 counts off */
+        Serial.print("# encoders: missed edges ");
+        Serial.print((long)missed);
+        Serial.println("");
+        missed_reported = missed;
+    }
     sail_lowpass_process(&lowpass, &r, 1);
     sail_estimate(&cal, &r, &f);
     Serial.print((double)(raw.theta1 * 57.29578f), 4);
