@@ -9,7 +9,7 @@ VECTORS := $(BUILD)/vectors
 #: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
 EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
 
-.PHONY: demo test c-test c-default cross cross-test arm-toolchain qemu-arm bench fuzz install clean
+.PHONY: demo test c-test c-default cross cross-test arm-toolchain qemu-arm valgrind bench fuzz install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -49,6 +49,11 @@ qemu-arm:
 	  echo "installing qemu-system-arm (Debian)"; \
 	  $(APT) update -qq && $(APT) install -y -qq qemu-system-arm > /dev/null; }
 
+valgrind:
+	@command -v valgrind > /dev/null || { \
+	  echo "installing valgrind (Debian)"; \
+	  $(APT) update -qq && $(APT) install -y -qq valgrind > /dev/null; }
+
 # libsail and the sketch for Cortex-M4F (-Os), installing Debian's toolchain if missing; prints the code size.
 cross: arm-toolchain
 	cmake -S c -B $(BUILD)/cross -DCMAKE_TOOLCHAIN_FILE=cmake/cortex-m4f.cmake -DCMAKE_BUILD_TYPE=MinSizeRel \
@@ -65,7 +70,8 @@ cross-test: $(STAMP) arm-toolchain qemu-arm
 	cmake --build $(BUILD)/cross-test -j 2 > /dev/null
 	ctest --test-dir $(BUILD)/cross-test --output-on-failure
 
-bench: $(STAMP)
+# every benchmark; callgrind counts x86-64 instructions, QEMU Thumb-2 ones (both installed when missing)
+bench: $(STAMP) valgrind arm-toolchain qemu-arm
 	$(PY) bench/run.py
 
 # Random and mutated files through every reader (tables in file and stream mode, fit-poly tables, robot and

@@ -1,0 +1,116 @@
+"""libsail on the target: Thumb-2 instructions per call on QEMU's emulated Cortex-M4F (mps2-an386), -Os as `make cross`.
+
+The bench programs (c/bench/bench_estimate.c, bench_motion.c) are built with
+`make cross`'s flags and run under ``qemu-system-arm -singlestep -d
+exec,nochain``, which logs every instruction executed; the instructions
+from each entry into the function until control is back in ``main`` are
+counted (callees included) and divided by the calls.  Needs
+arm-none-eabi-gcc and qemu-system-arm (`make cross-test` installs them).
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+C = ROOT / "c"
+TARGET_INSTRUCTIONS = 300  #: issue 18: Thumb-2 instructions per sail_estimate, default calibration
+CALLS = 256
+CLOCK_HZ = 168e6  #: an STM32F4-class Cortex-M4F
+#: Cycles per instruction assumed for the time: single-cycle ALU and FPU operations, 2-cycle loads,
+#: VDIV.F32 (14 cycles) and a few flash wait states; a rough figure, stated as such.
+CPI = 1.3
+CPU_FLAGS = ["-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16", "-ffunction-sections", "-fdata-sections"]
+LINK_FLAGS = ["--specs=nano.specs", "--specs=rdimon.specs", "-u", "_printf_float", "-Wl,--gc-sections",
+              "-T", str(C / "qemu" / "mps2_an386.ld")]  # fmt: skip
+TRACE_LINE = re.compile(rb"^Trace \d+: \S+ \[[0-9a-f]+/([0-9a-f]+)/")
+
+
+def _build(tmp: Path, program: str, bench_cal: str, name: str) -> Path:
+    (tmp / "bench_cal.h").write_text(bench_cal)
+    exe = tmp / f"{name}.elf"
+    command = ["arm-none-eabi-gcc", "-std=c99", "-Os", *CPU_FLAGS, "-DSAIL_BENCH_NO_CLOCK", f"-I{C / 'include'}",
+               f"-I{tmp}", *map(str, sorted((C / "src").glob("*.c"))), str(C / "bench" / program),
+               str(C / "qemu" / "startup.c"), *LINK_FLAGS, "-lm", "-o", str(exe)]  # fmt: skip
+    subprocess.run(command, check=True, capture_output=True)
+    return exe
+
+
+def _symbols(exe: Path) -> dict[str, tuple[int, int]]:
+    """Function name -> (start, end) addresses (the Thumb bit cleared)."""
+    out = subprocess.run(["arm-none-eabi-nm", "--print-size", "--defined-only", str(exe)], check=True,
+                         capture_output=True, text=True).stdout  # fmt: skip
+    symbols = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 4 and parts[2] in "Tt":
+            start = int(parts[0], 16) & ~1
+            symbols[parts[3]] = (start, start + int(parts[1], 16))
+    return symbols
+
+
+def instructions_per_call(exe: Path, function: str, calls: int, tmp: Path) -> float:
+    """Instructions executed from each entry into ``function`` until control is back in ``main``, per call."""
+    symbols = _symbols(exe)
+    entry = symbols[function][0]
+    main_lo, main_hi = symbols["main"]
+    trace = tmp / f"{exe.stem}.trace"
+    subprocess.run([str(C / "qemu" / "run.sh"), str(exe), str(calls)], check=True, capture_output=True, timeout=300,
+                   env={"PATH": "/usr/bin:/bin", "SAIL_QEMU_FLAGS": f"-singlestep -d exec,nochain -D {trace}"})  # fmt: skip
+    inside, count, entered = False, 0, 0
+    with open(trace, "rb") as lines:
+        for line in lines:
+            match = TRACE_LINE.match(line)
+            if not match:
+                continue
+            pc = int(match.group(1), 16)
+            if not inside and pc == entry:
+                inside, entered = True, entered + 1
+            if inside:
+                if main_lo <= pc < main_hi:
+                    inside = False
+                else:
+                    count += 1
+    if entered != calls:
+        raise RuntimeError(f"{function} entered {entered} times, expected {calls}")
+    return count / calls
+
+
+def run() -> list[tuple[str, str]]:
+    missing = [tool for tool in ("arm-none-eabi-gcc", "qemu-system-arm") if not shutil.which(tool)]
+    if missing:
+        return [("libsail on Cortex-M4F", f"{', '.join(missing)} not found (make cross-test installs them): skipped")]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        sys.path.insert(0, str(C / "tests"))
+        import contextlib
+        import io
+
+        import make_vectors
+
+        with contextlib.redirect_stdout(io.StringIO()):
+            make_vectors.main(tmp / "vectors")
+        default = C / "examples" / "sail_calibration.h"
+        name = re.search(r"static const sail_calibration (\w+) =", default.read_text()).group(1)
+        cases = [
+            ("sail_estimate, matrix (default calibration)", "bench_estimate.c", f'#include "{default}"\n#define BENCH_CAL {name}\n',
+             "sail_estimate", True),
+            ("sail_estimate, seed", "bench_estimate.c", f'#include "{tmp / "vectors" / "cal_seed.h"}"\n#define BENCH_CAL sail_cal_seed\n',
+             "sail_estimate", False),
+            ("sail_motion_step, 1 kHz, 101-sample window", "bench_motion.c",
+             f'#include "{tmp / "vectors" / "cal_motion.h"}"\n#define BENCH_CAL sail_cal_motion\n#define BENCH_DYN sail_cal_motion_dynamics\n',
+             "sail_motion_step", False),
+        ]  # fmt: skip
+        for i, (label, program, header, function, target) in enumerate(cases):
+            exe = _build(tmp, program, header, f"case{i}")
+            n = instructions_per_call(exe, function, CALLS, tmp)
+            verdict = f"   (target <= {TARGET_INSTRUCTIONS}: {'met' if n <= TARGET_INSTRUCTIONS else 'NOT met'})" if target else ""
+            rows.append((f"{label}: Thumb-2 instructions/call", f"{n:10.0f}{verdict}"))
+            rows.append((f"  at {CLOCK_HZ / 1e6:.0f} MHz, ~{CPI} cycles/instruction", f"{n * CPI / CLOCK_HZ * 1e6:10.2f} us/call"))
+    return rows
