@@ -112,11 +112,12 @@ def test_demo_runs_and_shows_the_guard():
     assert "singular pose(s)" in result.output and "seed Eq. 11" in result.output
 
 
-def test_console_script_is_installed():
-    completed = subprocess.run(
-        [sys.executable, "-m", "sailforce.cli", "--version"], capture_output=True, text=True, check=False
-    )
+@pytest.mark.parametrize("module", ["sailforce", "sailforce.cli"])
+def test_python_dash_m_runs_the_cli(module):
+    completed = subprocess.run([sys.executable, "-m", module, "--version"], capture_output=True, text=True, check=False)
     assert completed.returncode == 0 and __version__ in completed.stdout
+    completed = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True, text=True, check=False)
+    assert completed.returncode == 0 and "Usage: sail" in completed.stdout
 
 
 def _csv(path):

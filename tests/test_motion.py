@@ -197,6 +197,31 @@ def test_offline_blocks_equal_the_tracker(session, dt):
     assert (got[2] == OK).sum() > n - 400
 
 
+@pytest.mark.parametrize("threads", [2, 3])
+def test_threaded_blocks_equal_one_thread(session, threads):
+    """The estimator's blocks run on threads for large inputs: bit for bit what one thread gives, static and moving."""
+    from sailforce import estimator
+
+    _, cal, free, _ = session
+    fit = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1])
+    rng = np.random.default_rng(11)
+    n = 3 * estimator.BLOCK + 123  # four blocks, the last one short
+    theta1 = rng.uniform(0.8, 2.6, n)
+    theta2 = theta1 - rng.uniform(0.3, 2.8, n)
+    loads = cal.offsets + rng.normal(0.0, 2e4, (n, 2))
+    rates = rng.normal(0.0, 2.0, (4, n))
+    rates[:, ::1000] = np.nan  # some unknown motion
+    static = [estimator.estimate(cal.model, cal.offsets, cal.capacity, cal.delta_range, theta1, theta2,
+                                 loads[:, 0], loads[:, 1], threads=k) for k in (1, threads)]  # fmt: skip
+    shear = fit.term.shear_model(cal.arm)
+    moving = [estimator.estimate_moving(cal.model, cal.offsets, cal.capacity, cal.delta_range, shear, theta1, theta2,
+                                        *rates, loads[:, 0], loads[:, 1], threads=k) for k in (1, threads)]  # fmt: skip
+    for one, many in (static, moving):
+        for a, b in zip(one, many):
+            np.testing.assert_array_equal(a, b)
+    assert (moving[0][2] == MOTION_UNKNOWN).sum() >= n // 1000 and np.isfinite(moving[0][0]).sum() > n // 2
+
+
 def test_too_little_excitation_is_refused(session):
     _, cal, free, _ = session
     still = slice(2000, 2290)  # a dwell: the arm at rest
