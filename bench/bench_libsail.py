@@ -8,14 +8,13 @@ inside sail_estimate and its callees only (callgrind --toggle-collect).
 
 from __future__ import annotations
 
-import contextlib
-import io
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
+
+from _vectors import write_vectors
 
 ROOT = Path(__file__).resolve().parents[1]
 C = ROOT / "c"
@@ -69,12 +68,8 @@ def run() -> list[tuple[str, str]]:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        sys.path.insert(0, str(C / "tests"))
-        import make_vectors
-
-        with contextlib.redirect_stdout(io.StringIO()):
-            make_vectors.main(tmp / "vectors")
-        headers = {"matrix (default calibration)": C / "examples" / "sail_calibration.h", "seed": tmp / "vectors" / "cal_seed.h"}
+        vectors = write_vectors(tmp)
+        headers = {"matrix (default calibration)": C / "examples" / "sail_calibration.h", "seed": vectors / "cal_seed.h"}
         for label, header in headers.items():
             for double in (False, True):
                 exe = _build(tmp, header, double)
@@ -89,7 +84,7 @@ def run() -> list[tuple[str, str]]:
                 else:
                     rows.append((f"sail_estimate, {label}, {real}: instructions/call", "valgrind not installed"))
                 rows.append((f"sail_estimate, {label}, {real}: native", f"{native / 1e6:10.1f} M calls/s"))
-        motion = tmp / "vectors" / "cal_motion.h"  # 1 kHz, 0.1 s window: 101 samples
+        motion = vectors / "cal_motion.h"  # 1 kHz, 0.1 s window: 101 samples
         for double in (False, True):
             exe = _build_motion(tmp, motion, double)
             real = "double" if double else "float"

@@ -13,9 +13,10 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
+
+from _vectors import write_vectors
 
 ROOT = Path(__file__).resolve().parents[1]
 C = ROOT / "c"
@@ -88,23 +89,16 @@ def run() -> list[tuple[str, str]]:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        sys.path.insert(0, str(C / "tests"))
-        import contextlib
-        import io
-
-        import make_vectors
-
-        with contextlib.redirect_stdout(io.StringIO()):
-            make_vectors.main(tmp / "vectors")
+        vectors = write_vectors(tmp)
         default = C / "examples" / "sail_calibration.h"
         name = re.search(r"static const sail_calibration (\w+) =", default.read_text()).group(1)
         cases = [
             ("sail_estimate, matrix (default calibration)", "bench_estimate.c", f'#include "{default}"\n#define BENCH_CAL {name}\n',
              "sail_estimate", True),
-            ("sail_estimate, seed", "bench_estimate.c", f'#include "{tmp / "vectors" / "cal_seed.h"}"\n#define BENCH_CAL sail_cal_seed\n',
+            ("sail_estimate, seed", "bench_estimate.c", f'#include "{vectors / "cal_seed.h"}"\n#define BENCH_CAL sail_cal_seed\n',
              "sail_estimate", False),
             ("sail_motion_step, 1 kHz, 101-sample window", "bench_motion.c",
-             f'#include "{tmp / "vectors" / "cal_motion.h"}"\n#define BENCH_CAL sail_cal_motion\n#define BENCH_DYN sail_cal_motion_dynamics\n',
+             f'#include "{vectors / "cal_motion.h"}"\n#define BENCH_CAL sail_cal_motion\n#define BENCH_DYN sail_cal_motion_dynamics\n',
              "sail_motion_step", False),
         ]  # fmt: skip
         for i, (label, program, header, function, target) in enumerate(cases):
