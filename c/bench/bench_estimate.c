@@ -8,12 +8,10 @@
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <stdio.h>
 #include <stdlib.h>
-#ifndef SAIL_BENCH_NO_CLOCK /* a bare-metal target (bench/bench_thumb.py): no clock, the calls only */
-#include <time.h>
-#endif
 
 #include "sail.h"
 #include "bench_cal.h"
+#include "bench_clock.h"
 
 #define READINGS 1024
 
@@ -22,10 +20,7 @@ int main(int argc, char **argv)
     static sail_reading in[READINGS];
     const long n = argc > 1 ? atol(argv[1]) : 1000000L;
     const sail_calibration *cal = &BENCH_CAL;
-    double checksum = 0, seconds;
-#ifndef SAIL_BENCH_NO_CLOCK
-    struct timespec start, stop;
-#endif
+    double checksum = 0, start;
     long i;
     unsigned int seed = 12345u;
     for (i = 0; i < READINGS; i++) {  /* delta spread over the calibrated range, loads over half the capacity */
@@ -36,21 +31,12 @@ int main(int argc, char **argv)
         in[i].load1 = cal->offset[0] + (sail_real)(0.5 - u) * cal->capacity[0];
         in[i].load2 = cal->offset[1] + (sail_real)(u - 0.5) * cal->capacity[1] * (sail_real)0.7;
     }
-#ifndef SAIL_BENCH_NO_CLOCK
-    clock_gettime(CLOCK_MONOTONIC, &start);
-#endif
+    start = bench_now();
     for (i = 0; i < n; i++) {
         sail_force f;
         sail_estimate(cal, &in[i & (READINGS - 1)], &f);
         checksum += (double)f.fx + f.status;
     }
-#ifdef SAIL_BENCH_NO_CLOCK
-    (void)seconds;
-    printf("%ld calls (checksum %.6g)\n", n, checksum);
-#else
-    clock_gettime(CLOCK_MONOTONIC, &stop);
-    seconds = (double)(stop.tv_sec - start.tv_sec) + 1e-9 * (double)(stop.tv_nsec - start.tv_nsec);
-    printf("%ld calls in %.6f s: %.4g calls/s (checksum %.6g)\n", n, seconds, (double)n / seconds, checksum);
-#endif
+    bench_report(n, "calls", bench_now() - start, checksum);
     return 0;
 }

@@ -9,12 +9,10 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
-#ifndef SAIL_BENCH_NO_CLOCK /* a bare-metal target (bench/bench_thumb.py): no clock, the calls only */
-#include <time.h>
-#endif
 
 #include "sail.h"
 #include "bench_cal.h"
+#include "bench_clock.h"
 
 int main(int argc, char **argv)
 {
@@ -22,15 +20,10 @@ int main(int argc, char **argv)
     const long n = argc > 1 ? atol(argv[1]) : 1000000L;
     const sail_calibration *cal = &BENCH_CAL;
     const sail_dynamics *dyn = &BENCH_DYN;
-    double checksum = 0, seconds;
-#ifndef SAIL_BENCH_NO_CLOCK
-    struct timespec start, stop;
-#endif
+    double checksum = 0, start;
     long i;
     sail_motion_init(&state, dyn);
-#ifndef SAIL_BENCH_NO_CLOCK
-    clock_gettime(CLOCK_MONOTONIC, &start);
-#endif
+    start = bench_now();
     for (i = 0; i < n; i++) {  /* a slow circle of the hand: delta stays inside the calibrated range */
         const double t = (double)i * (double)dyn->dt, phase = 2.0 * t;
         sail_reading r;
@@ -42,13 +35,6 @@ int main(int argc, char **argv)
         if (sail_motion_step(&state, cal, t, &r, &f, NULL, NULL))
             checksum += (double)f.fx + f.status;
     }
-#ifdef SAIL_BENCH_NO_CLOCK
-    (void)seconds;
-    printf("%ld steps (checksum %.6g)\n", n, checksum);
-#else
-    clock_gettime(CLOCK_MONOTONIC, &stop);
-    seconds = (double)(stop.tv_sec - start.tv_sec) + 1e-9 * (double)(stop.tv_nsec - start.tv_nsec);
-    printf("%ld steps in %.6f s: %.4g steps/s (checksum %.6g)\n", n, seconds, (double)n / seconds, checksum);
-#endif
+    bench_report(n, "steps", bench_now() - start, checksum);
     return 0;
 }
