@@ -160,7 +160,8 @@ def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2, *, 
 
     ``rates`` ``(omega, alpha)``, each ``(n, 2)`` [rad/s, rad/s^2], are
     used when measured; otherwise they are derived from ``t`` and the
-    angles (:func:`motion_states`).  ``inertial`` ``(n, 2)`` is the
+    angles, block by block (:class:`~sailforce.differentiate.RatePlan`: the numbers of
+    :func:`motion_states`).  ``inertial`` ``(n, 2)`` is the
     subtracted dynamic load in reading units; samples whose motion is
     unknown (start, end, around gaps) get NaN there and the status
     :data:`sailforce.estimator.MOTION_UNKNOWN` unless a static status
