@@ -14,6 +14,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 from _timing import best_of
 
+from sailforce import kernel
 from sailforce.calfile import Calibration
 from sailforce.compensation import MatrixCompensator
 from sailforce.arm import Arm
@@ -70,8 +71,13 @@ def run() -> list[tuple[str, str]]:
     t2 = rng.uniform(-1, 1, N_CALL)
     t1 = t2 + rng.uniform(0.3, 2.8, N_CALL)
     l1, l2 = rng.uniform(-1e6, 1e6, N_CALL), rng.uniform(-1e6, 1e6, N_CALL)
-    t_call = best_of(3, lambda: cal.estimate(t1, t2, l1, l2))
-    rows = [("Calibration.estimate, order-6 matrix model, 1e6 samples", f"{N_CALL / t_call / 1e6:10.2f} M samples/s"),
+    with kernel.use_backend("numpy"):
+        t_numpy = best_of(3, lambda: cal.estimate(t1, t2, l1, l2))
+    t_call = best_of(3, lambda: cal.estimate(t1, t2, l1, l2))  # the default back-end
+    rows = [(f"Calibration.estimate, order-6 matrix model, 1e6 samples ({kernel.backend()})",
+             f"{N_CALL / t_call / 1e6:10.2f} M samples/s"),
+            ("Calibration.estimate, the same on numpy", f"{N_CALL / t_numpy / 1e6:10.2f} M samples/s"),
+            (f"ratio {kernel.backend()} / numpy (same run)", f"{t_numpy / t_call:10.1f} x"),
             ("target", f">= {TARGET_CALL / 1e6:g} M samples/s: {'met' if N_CALL / t_call >= TARGET_CALL else 'NOT met'}")]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

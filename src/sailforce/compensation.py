@@ -41,24 +41,20 @@ functions of delta alone in that frame.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Literal, Protocol, overload
 
 import numpy as np
 
 from ._validate import as_float_arrays
 from .errors import SailError
-from .kinematics import Links, jacobian
+from .kernel import Entries, torque_entries
+from .kinematics import SINGULAR_SIN_DELTA, Links, jacobian
 from .regressors import PolynomialFit
-from .kinematics import sin_delta_from_trig
-from .statics import SINGULAR_SIN_DELTA, is_singular, raise_singular_pose
+from .statics import raise_singular_pose
 
 
 class CompensationError(SailError):
     """Data that cannot determine a compensator."""
-
-
-#: The four entries (m00, m01, m10, m11) of a batch of 2x2 matrices, each of the batch shape.
-Entries = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 class SensingModel(Protocol):
@@ -80,15 +76,10 @@ def torque_rows(arm: Links, theta1, theta2) -> np.ndarray:
     return np.swapaxes(jacobian(arm, theta1, theta2), -1, -2)
 
 
-def torque_entries(arm: Links, sin1, cos1, sin2, cos2) -> Entries:
-    """J^T as entries from the joint angles' sines and cosines: rows l3 (-sin th1, cos th1), l2 (-sin th2, cos th2) (seed Eq. 4)."""
-    return (-arm.l3 * sin1, arm.l3 * cos1, -arm.l2 * sin2, arm.l2 * cos2)
-
-
 def _matrix_from(model, theta1, theta2) -> np.ndarray:
     """``(..., 2, 2)`` sensing matrices from a model's :meth:`sensing_entries`."""
     theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
-    jt = torque_entries(model.arm, np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2))
+    jt = torque_entries(model.arm.l2, model.arm.l3, np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2))
     m00, m01, m10, m11 = model.sensing_entries(theta1 - theta2, jt)
     return np.stack([np.stack([m00, m01], axis=-1), np.stack([m10, m11], axis=-1)], axis=-2)
 
@@ -137,6 +128,10 @@ class TorqueScale:
         """M's entries from delta [rad] and J^T's entries: row i of J^T over k_i."""
         k1, k2 = self.scale
         return (jt[0] / k1, jt[1] / k1, jt[2] / k2, jt[3] / k2)
+
+    def matrix_series(self) -> tuple[np.ndarray, tuple[float, float]]:
+        """This model as a :class:`MatrixCompensator`'s series: the constant C = diag(1/k1, 1/k2) (order 0)."""
+        return np.diag([1.0 / self.scale[0], 1.0 / self.scale[1]])[None], (-1.0, 1.0)
 
     def sensing_matrix(self, theta1, theta2) -> np.ndarray:
         return _matrix_from(self, theta1, theta2)
@@ -220,6 +215,10 @@ class MatrixCompensator:
         c00, c01, c10, c11 = (c[..., k] for k in range(4))
         return (c00 * jt[0] + c01 * jt[2], c00 * jt[1] + c01 * jt[3], c10 * jt[0] + c11 * jt[2], c10 * jt[1] + c11 * jt[3])
 
+    def matrix_series(self) -> tuple[np.ndarray, tuple[float, float]]:
+        """``(coefficients, delta_range)``: what the compiled kernel evaluates (:mod:`sailforce.kernel`)."""
+        return np.ascontiguousarray(self.coefficients, dtype=float), self.delta_range
+
     def sensing_matrix(self, theta1, theta2) -> np.ndarray:
         return _matrix_from(self, theta1, theta2)
 
@@ -229,17 +228,12 @@ def _chebyshev_argument(delta: np.ndarray, delta_range: tuple[float, float]) -> 
     return (2.0 * delta - (low + high)) / (high - low)
 
 
-def solve_sensing(m: Entries, load1, load2, skip) -> tuple[np.ndarray, np.ndarray]:
-    """Solve M F = s for F by Cramer's rule (cf. seed Eq. 8 for M = J^T); NaN where ``skip`` or det M = 0.
-
-    ``m`` is M's entries ``(m00, m01, m10, m11)``, as :meth:`SensingModel.sensing_entries` gives them.
-    """
-    m00, m01, m10, m11 = m
-    det = m00 * m11 - m01 * m10
-    det = np.where(skip | (det == 0.0), np.nan, det)
-    return (m11 * load1 - m01 * load2) / det, (m00 * load2 - m10 * load1) / det
-
-
+@overload
+def estimate_force(model: SensingModel, theta1, theta2, load1, load2, *, on_singular: Literal["raise"] = ...,
+                   min_sin_delta: float = ...) -> tuple[np.ndarray, np.ndarray]: ...  # fmt: skip
+@overload
+def estimate_force(model: SensingModel, theta1, theta2, load1, load2, *, on_singular: Literal["mask"],
+                   min_sin_delta: float = ...) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...  # fmt: skip
 def estimate_force(
     model: SensingModel,
     theta1,
@@ -247,15 +241,17 @@ def estimate_force(
     load1,
     load2,
     *,
-    on_singular: str = "raise",
+    on_singular: Literal["raise", "mask"] = "raise",
     min_sin_delta: float = SINGULAR_SIN_DELTA,
 ):
     """End-effector force (fx, fy) [N] from the two load-cell signals: solve M F = s.
 
-    Angles in radians; loads in the model's signal unit.  Poses with
-    |sin(theta1 - theta2)| < ``min_sin_delta`` are singular: raise
-    :class:`SingularPoseError` (default), or with ``on_singular="mask"``
-    return ``(fx, fy, singular)`` with NaN there.
+    Angles in radians; loads in the model's signal unit (offset-free).  The
+    force kernel's estimate (:mod:`sailforce.estimator`) without offsets,
+    capacity or range.  Poses with |sin(theta1 - theta2)| < ``min_sin_delta``
+    are singular: raise :class:`SingularPoseError` (default, result
+    ``(fx, fy)``), or with ``on_singular="mask"`` return ``(fx, fy, singular)``
+    with NaN there.
 
     >>> from sailforce import Arm
     >>> model = TorqueScale(Arm(), (1.0, 1.0))          # signals are the torques themselves
@@ -263,18 +259,19 @@ def estimate_force(
     >>> round(float(fx), 12), round(float(fy), 12)
     (0.0, 10.0)
     """
-    theta1, theta2, load1, load2 = as_float_arrays(theta1=theta1, theta2=theta2, load1=load1, load2=load2)
-    trig = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
-    singular = is_singular(sin_delta_from_trig(*trig), min_sin_delta)
-    if on_singular == "raise" and singular.any():
-        raise_singular_pose(theta1, theta2, singular, min_sin_delta)
-    jt = torque_entries(model.arm, *trig)
-    fx, fy = solve_sensing(model.sensing_entries(theta1 - theta2, jt), load1, load2, singular)
-    if on_singular == "raise":
-        return fx, fy
-    if on_singular != "mask":
+    from .estimator import SINGULAR, estimate
+
+    if on_singular not in ("raise", "mask"):
         raise ValueError(f"on_singular = {on_singular!r}: expected 'raise' or 'mask'")
-    return fx, fy, singular
+    theta1, theta2, load1, load2 = as_float_arrays(theta1=theta1, theta2=theta2, load1=load1, load2=load2)
+    fx, fy, status = estimate(model, (0.0, 0.0), (np.inf, np.inf), (-np.inf, np.inf), theta1, theta2, load1, load2,
+                              min_sin_delta=min_sin_delta)  # fmt: skip
+    singular = status == SINGULAR
+    if on_singular == "raise":
+        if singular.any():
+            raise_singular_pose(theta1, theta2, singular, min_sin_delta)
+        return fx[()], fy[()]
+    return fx[()], fy[()], singular[()]
 
 
 #: Highest Chebyshev order :func:`fit_matrix_compensator` tries by default.

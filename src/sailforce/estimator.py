@@ -1,23 +1,9 @@
 """The run-time force estimator: one calibrated estimate and one status per reading.
 
-Statuses (the same codes as libsail's ``enum``):
-
-- ``OK`` (0);
-- ``SINGULAR`` (1): |sin(theta1 - theta2)| < :data:`sailforce.SINGULAR_SIN_DELTA`;
-  no estimate (NaN);
-- ``SATURATED`` (2): a reading, offset removed, is beyond its cell's capacity;
-  the estimate is given but must not be trusted;
-- ``EXTRAPOLATED`` (3): delta lies outside the calibrated range (by more
-  than :data:`DELTA_RANGE_SLACK`); the estimate is given;
-- ``INVALID`` (4): a field is NaN or infinite (or, in files, missing or not a
-  number); no estimate;
-- ``MOTION_UNKNOWN`` (5): with a dynamic term (:mod:`sailforce.inertial`),
-  the joint rates are not known yet (the first half window of a recording,
-  around a gap), so the inertial load cannot be subtracted; no estimate.
-  Appended after the static codes, whose numbers stay as they were.
-
-When several apply, the first in the order INVALID, SINGULAR, SATURATED,
-MOTION_UNKNOWN, EXTRAPOLATED wins.
+The statuses and their precedence are those of :mod:`sailforce.status`
+(the same codes as libsail's ``enum``).  The static estimate is the force
+kernel's (:mod:`sailforce.kernel`); with a dynamic term
+(:mod:`sailforce.inertial`) the inertial load is subtracted too.
 """
 
 from __future__ import annotations
@@ -26,13 +12,11 @@ import os
 
 import numpy as np
 
+from . import kernel
 from ._blocks import for_each_block
-from .compensation import solve_sensing, torque_entries
-from .kinematics import sin_delta_from_trig
-from .statics import is_singular
-
-OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID, MOTION_UNKNOWN = range(6)
-STATUS_NAMES = ("ok", "singular", "saturated", "extrapolated", "invalid", "motion-unknown")
+from .kernel import solve_2x2, torque_entries
+from .kinematics import SINGULAR_SIN_DELTA, is_singular, sin_delta_from_trig
+from .status import EXTRAPOLATED, INVALID, MOTION_UNKNOWN, OK, SATURATED, SINGULAR, STATUS_NAMES  # noqa: F401 (re-exported)
 
 #: Delta may leave the calibrated range by this much [rad] before the estimate
 #: counts as extrapolated: 0.01 deg, below encoder resolution of a held pose.
@@ -46,7 +30,8 @@ BLOCK = 16384
 THREADS = min(4, os.cpu_count() or 1)
 
 
-def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2, *, threads: int | None = None):
+def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2, *, threads: int | None = None,
+             min_sin_delta: float = SINGULAR_SIN_DELTA):  # fmt: skip
     """Vectorized estimate: ``(fx, fy, status)`` for arrays of readings (angles [rad], raw loads).
 
     ``model`` is a sensing model (``sensing_entries``, ``arm``), ``offsets``
@@ -54,9 +39,11 @@ def estimate(model, offsets, capacity, delta_range, theta1, theta2, load1, load2
     broadcast; nothing raises on bad readings: they get their status.  The
     work is split into blocks of :data:`BLOCK` readings, on ``threads``
     (default :data:`THREADS`) threads when there are several blocks; the
-    result does not depend on it.
+    result does not depend on it.  Poses with |sin(theta1 - theta2)| <
+    ``min_sin_delta`` are :data:`SINGULAR`.
     """
-    fx, fy, status, _ = _run_blocks(model, offsets, capacity, delta_range, (theta1, theta2, load1, load2), None, threads)
+    fx, fy, status, _ = _run_blocks(model, offsets, capacity, delta_range, (theta1, theta2, load1, load2), None, threads,
+                                    min_sin_delta=min_sin_delta)  # fmt: skip
     return fx, fy, status
 
 
@@ -95,7 +82,8 @@ def estimate_moving_blocks(model, offsets, capacity, delta_range, shear_model, t
                        motion)  # fmt: skip
 
 
-def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, threads, motion=None):
+def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, threads, motion=None,
+                min_sin_delta=SINGULAR_SIN_DELTA):  # fmt: skip
     threads = THREADS if threads is None else threads
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in arrays))
     shape = arrays[0].shape
@@ -107,7 +95,8 @@ def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, thre
     def run(start: int) -> None:
         stop = min(start + BLOCK, n)
         rates = motion(start, stop) if shear_model is not None else ()
-        out = _estimate_block(model, offsets, capacity, delta_range, shear_model, *(a[start:stop] for a in flat), *rates)
+        out = _estimate_block(model, offsets, capacity, delta_range, shear_model, min_sin_delta,
+                              *(a[start:stop] for a in flat), *rates)  # fmt: skip
         fx[start:stop], fy[start:stop], status[start:stop] = out[:3]
         if inertial is not None:
             inertial[start:stop, 0], inertial[start:stop, 1] = out[3]
@@ -117,20 +106,49 @@ def _run_blocks(model, offsets, capacity, delta_range, arrays, shear_model, thre
             None if inertial is None else inertial.reshape(shape + (2,)))  # fmt: skip
 
 
-def _estimate_block(model, offsets, capacity, delta_range, shear_model, theta1, theta2, load1, load2, *motion):
+def _estimate_block(model, offsets, capacity, delta_range, shear_model, min_sin_delta, theta1, theta2, load1, load2,
+                    *motion):  # fmt: skip
+    module = kernel.compiled()
+    series = getattr(model, "matrix_series", None)
+    if module is not None and shear_model is None and series is not None:
+        return _estimate_compiled(module, model, series(), offsets, capacity, delta_range, min_sin_delta,
+                                  theta1, theta2, load1, load2)  # fmt: skip
+    return _estimate_numpy(model, offsets, capacity, delta_range, shear_model, min_sin_delta,
+                           theta1, theta2, load1, load2, *motion)  # fmt: skip
+
+
+def _estimate_compiled(module, model, series, offsets, capacity, delta_range, min_sin_delta, theta1, theta2, load1,
+                       load2):  # fmt: skip
+    """The static estimate of a model M = C(delta) J^T on the compiled kernel; verdicts at the threshold from numpy."""
+    coefficients, (cheb_lo, cheb_hi) = series
+    n = theta1.size
+    fx, fy, status, near = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
+    module.estimate_matrix(model.arm.l2, model.arm.l3, coefficients, cheb_lo, cheb_hi,
+                           np.asarray(offsets, dtype=float), np.asarray(capacity, dtype=float),
+                           delta_range[0] - DELTA_RANGE_SLACK, delta_range[1] + DELTA_RANGE_SLACK, min_sin_delta,
+                           theta1, theta2, load1, load2, fx, fy, status, near)  # fmt: skip
+    rows = np.flatnonzero(near)
+    if rows.size:
+        fx[rows], fy[rows], status[rows], _ = _estimate_numpy(model, offsets, capacity, delta_range, None, min_sin_delta,
+                                                              *(a[rows] for a in (theta1, theta2, load1, load2)))  # fmt: skip
+    return fx, fy, status, None
+
+
+def _estimate_numpy(model, offsets, capacity, delta_range, shear_model, min_sin_delta, theta1, theta2, load1, load2,
+                    *motion):  # fmt: skip
     invalid = ~(np.isfinite(theta1) & np.isfinite(theta2) & np.isfinite(load1) & np.isfinite(load2))
     if invalid.any():  # keep NaN out of the arithmetic; these rows are masked below
         theta1, theta2, load1, load2 = (np.where(invalid, 0.0, a) for a in (theta1, theta2, load1, load2))
     sin1, cos1, sin2, cos2 = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
     delta = theta1 - theta2
-    singular = is_singular(sin_delta_from_trig(sin1, cos1, sin2, cos2))  # det J = -l2 l3 sin(delta) (seed Eq. 9)
-    jt = torque_entries(model.arm, sin1, cos1, sin2, cos2)
+    singular = is_singular(sin_delta_from_trig(sin1, cos1, sin2, cos2), min_sin_delta)  # det J = -l2 l3 sin(delta) (seed Eq. 9)
+    jt = torque_entries(model.arm.l2, model.arm.l3, sin1, cos1, sin2, cos2)
     m = model.sensing_entries(delta, jt)
     s1, s2 = load1 - offsets[0], load2 - offsets[1]
     saturated = (np.abs(s1) > capacity[0]) | (np.abs(s2) > capacity[1])
     extrapolated = (delta < delta_range[0] - DELTA_RANGE_SLACK) | (delta > delta_range[1] + DELTA_RANGE_SLACK)
 
-    fx, fy = solve_sensing(m, s1, s2, invalid | singular)
+    fx, fy = solve_2x2(m, s1, s2, invalid | singular)
     singular |= np.isnan(fx) & ~invalid  # a degenerate fitted map cannot be inverted either
 
     status = np.zeros(fx.shape, dtype=np.int8)
@@ -142,7 +160,7 @@ def _estimate_block(model, offsets, capacity, delta_range, shear_model, theta1, 
         unknown = ~np.isfinite(v1)
         v1 *= model.arm.l1
         v2 *= model.arm.l2
-        wx, wy = solve_sensing(jt, v1, v2, singular)  # J^T w = diag(l) V
+        wx, wy = solve_2x2(jt, v1, v2, singular)  # J^T w = diag(l) V
         fx -= wx
         fy -= wy
         inertial = (m[0] * wx + m[1] * wy, m[2] * wx + m[3] * wy)

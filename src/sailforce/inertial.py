@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .compensation import solve_sensing, torque_entries
+from .kernel import solve_2x2, torque_entries
 from .differentiate import Differentiator, MotionDataError, RatePlan, RateTracker, derivatives, sampling_period
 from .dynamics import PARAMETERS, ShearModel, base_parameters, shear_regressor
 
@@ -63,7 +63,7 @@ class DynamicTerm:
 def reading_gain(model, arm, theta1, theta2) -> np.ndarray:
     """``G = M (J^T)^-1 diag(l1, l2)`` ``(n, 2, 2)``: readings per newton of shear in each cell."""
     s1, c1, s2, c2 = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
-    jt = torque_entries(arm, s1, c1, s2, c2)
+    jt = torque_entries(arm.l2, arm.l3, s1, c1, s2, c2)
     m = model.sensing_entries(theta1 - theta2, jt)
     M = np.stack([np.stack(m[:2], -1), np.stack(m[2:], -1)], -2)
     JT = np.stack([np.stack(jt[:2], -1), np.stack(jt[2:], -1)], -2)
@@ -138,8 +138,8 @@ def fit_dynamic_term(cal, t, theta1, theta2, load1, load2, *, differentiator: Di
 def _force_rmse(cal, q: np.ndarray, residual: np.ndarray) -> float:
     """RMS of the force ``M^-1 residual`` [N]: what a reading residual does to the estimate."""
     s1, c1, s2, c2 = np.sin(q[:, 0]), np.cos(q[:, 0]), np.sin(q[:, 1]), np.cos(q[:, 1])
-    m = cal.model.sensing_entries(q[:, 0] - q[:, 1], torque_entries(cal.arm, s1, c1, s2, c2))
-    fx, fy = solve_sensing(m, residual[:, 0], residual[:, 1], np.zeros(q.shape[0], dtype=bool))
+    m = cal.model.sensing_entries(q[:, 0] - q[:, 1], torque_entries(cal.arm.l2, cal.arm.l3, s1, c1, s2, c2))
+    fx, fy = solve_2x2(m, residual[:, 0], residual[:, 1], np.zeros(q.shape[0], dtype=bool))
     return float(np.sqrt(np.nanmean(fx**2 + fy**2)))
 
 

@@ -92,6 +92,27 @@ def jacobian(arm: Links, theta1, theta2) -> np.ndarray:
     return np.stack([row_x, row_y], axis=-2)
 
 
+#: Poses with |sin(theta1 - theta2)| below this are refused by the force
+#: inversion.  sin(2 deg): there the error in F is amplified ~29x relative to
+#: a square pose (delta = 90 deg), which no load cell's accuracy survives; the
+#: seed's study stays at |delta| >= 7.5 deg.
+SINGULAR_SIN_DELTA = float(np.sin(np.radians(2.0)))
+
+
+def is_singular(sin_delta, min_sin_delta: float = SINGULAR_SIN_DELTA) -> np.ndarray:
+    """The singularity predicate, used everywhere: ``|sin(theta1 - theta2)| < min_sin_delta``.
+
+    ``sin_delta`` comes from :func:`sin_delta_from_trig` (or :func:`sin_delta`),
+    the same formula as libsail's.
+    """
+    return np.abs(sin_delta) < min_sin_delta
+
+
+def singular_poses(theta1, theta2, min_sin_delta: float = SINGULAR_SIN_DELTA) -> np.ndarray:
+    """:func:`is_singular` of poses given by their angles [rad]."""
+    return is_singular(sin_delta(theta1, theta2), min_sin_delta)
+
+
 def sin_delta(theta1, theta2) -> np.ndarray:
     """The singularity measure sin(theta1 - theta2).
 

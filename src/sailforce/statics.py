@@ -17,36 +17,24 @@ and the polar form is |F| = hypot(Fx, Fy), phi = atan2(Fy, Fx).
 
 from __future__ import annotations
 
+import os
+from typing import Literal, overload
+
 import numpy as np
 
+from . import kernel
+from ._blocks import for_each_block
 from ._validate import as_float_arrays
 from .errors import SingularPoseError
-from .kinematics import Links, sin_delta, sin_delta_from_trig
-
-#: Poses with |sin(theta1 - theta2)| below this are refused by the force
-#: inversion.  sin(2 deg): there the error in F is amplified ~29x relative to
-#: a square pose (delta = 90 deg), which no load cell's accuracy survives; the
-#: seed's study stays at |delta| >= 7.5 deg.
-SINGULAR_SIN_DELTA = float(np.sin(np.radians(2.0)))
-
-
-def is_singular(sin_delta, min_sin_delta: float = SINGULAR_SIN_DELTA) -> np.ndarray:
-    """The singularity predicate, used everywhere: ``|sin(theta1 - theta2)| < min_sin_delta``.
-
-    ``sin_delta`` comes from :func:`sailforce.kinematics.sin_delta_from_trig`
-    (or :func:`sailforce.kinematics.sin_delta`), the same formula as libsail's.
-    """
-    return np.abs(sin_delta) < min_sin_delta
-
-
-def singular_poses(theta1, theta2, min_sin_delta: float = SINGULAR_SIN_DELTA) -> np.ndarray:
-    """:func:`is_singular` of poses given by their angles [rad]."""
-    return is_singular(sin_delta(theta1, theta2), min_sin_delta)
+from .kinematics import SINGULAR_SIN_DELTA, Links, is_singular, sin_delta, singular_poses  # noqa: F401 (re-exported)
 
 #: Poses per block in :func:`end_effector_force`: every temporary of a block
-#: stays in L2 cache.  Measured on 10^7 poses: ~12 M poses/s blocked against
-#: 3.5-9 M poses/s unblocked, where fresh 80 MB temporaries page-fault.
+#: stays in L2 cache.  Measured on 10^7 poses (numpy back-end): ~12 M poses/s
+#: blocked against 3.5-9 M poses/s unblocked, where fresh 80 MB temporaries page-fault.
 BLOCK = 1 << 15
+
+#: Threads for inputs of several blocks (the kernel releases the GIL).
+THREADS = min(4, os.cpu_count() or 1)
 
 
 def joint_torques(arm: Links, theta1, theta2, fx, fy) -> tuple[np.ndarray, np.ndarray]:
@@ -68,6 +56,12 @@ def joint_torques(arm: Links, theta1, theta2, fx, fy) -> tuple[np.ndarray, np.nd
     return t1, t2
 
 
+@overload
+def end_effector_force(arm: Links, theta1, theta2, t1, t2, *, on_singular: Literal["raise"] = ...,
+                       min_sin_delta: float = ...) -> tuple[np.ndarray, np.ndarray]: ...  # fmt: skip
+@overload
+def end_effector_force(arm: Links, theta1, theta2, t1, t2, *, on_singular: Literal["mask"],
+                       min_sin_delta: float = ...) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...  # fmt: skip
 def end_effector_force(
     arm: Links,
     theta1,
@@ -75,16 +69,17 @@ def end_effector_force(
     t1,
     t2,
     *,
-    on_singular: str = "raise",
+    on_singular: Literal["raise", "mask"] = "raise",
     min_sin_delta: float = SINGULAR_SIN_DELTA,
 ):
     """End-effector force F = (J^T)^-1 T [N] from joint torques (t1, t2) [N m].
 
     Uses the corrected inverse (module docstring, docs/errata.md), not the seed's
-    Eq. 10-12.  Where |sin(theta1 - theta2)| < ``min_sin_delta``:
+    Eq. 10-12, computed by the force kernel (:mod:`sailforce.kernel`).  Where
+    |sin(theta1 - theta2)| < ``min_sin_delta``:
 
     - ``on_singular="raise"`` (default) raises :class:`SingularPoseError`
-      naming the first such pose and the threshold;
+      naming the first such pose and the threshold, and the result is ``(fx, fy)``;
     - ``on_singular="mask"`` returns ``(fx, fy, singular)`` with NaN in fx and
       fy where the boolean mask ``singular`` is True.
 
@@ -100,33 +95,19 @@ def end_effector_force(
     flat = [np.ravel(a) for a in (theta1, theta2, t1, t2)]
     fx, fy = np.empty(theta1.size), np.empty(theta1.size)
     singular = np.empty(theta1.size, dtype=bool)
-    for start in range(0, theta1.size, BLOCK):  # blocks of poses, not single poses
+
+    def run(start: int) -> None:
         block = slice(start, start + BLOCK)
-        fx[block], fy[block], singular[block] = _force_block(arm, *(a[block] for a in flat), min_sin_delta)
-    if singular.any():
-        if on_singular == "raise":
-            raise_singular_pose(theta1, theta2, singular.reshape(shape), min_sin_delta)
-        fx[singular] = np.nan
-        fy[singular] = np.nan
+        fx[block], fy[block], singular[block] = kernel.force_from_torques(
+            arm.l2, arm.l3, *(a[block] for a in flat), min_sin_delta)  # fmt: skip
+
+    for_each_block(theta1.size, BLOCK, THREADS, run)
+    if on_singular == "raise" and singular.any():
+        raise_singular_pose(theta1, theta2, singular.reshape(shape), min_sin_delta)
     fx, fy = fx.reshape(shape)[()], fy.reshape(shape)[()]
     if on_singular == "raise":
         return fx, fy
     return fx, fy, singular.reshape(shape)[()]
-
-
-def _force_block(arm: Links, theta1, theta2, t1, t2, min_sin_delta):
-    """Eq. 8 with the corrected (J^T)^-1 on one block; singular entries are left finite but meaningless."""
-    c1, s1 = np.cos(theta1), np.sin(theta1)
-    c2, s2 = np.cos(theta2), np.sin(theta2)
-    sd = sin_delta_from_trig(s1, c1, s2, c2)
-    singular = is_singular(sd, min_sin_delta)
-    if singular.any():
-        sd = np.where(singular, 1.0, sd)
-    l2, l3 = arm.l2, arm.l3
-    scale = 1.0 / (l2 * l3 * sd)
-    l2t1 = l2 * t1
-    l3t2 = l3 * t2
-    return (l3t2 * c1 - l2t1 * c2) * scale, (l3t2 * s1 - l2t1 * s2) * scale, singular
 
 
 def raise_singular_pose(theta1, theta2, singular, min_sin_delta) -> None:

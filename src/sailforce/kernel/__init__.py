@@ -1,0 +1,163 @@
+"""The force kernel: solve M F = s for a batch of poses, the one place it is computed.
+
+Every force in sailforce is the solution of a 2x2 system at each pose,
+
+    M(theta1, theta2) F = s,
+
+by Cramer's rule (cf. seed Eq. 8):
+
+- statics (:func:`sailforce.statics.end_effector_force`): M = J^T and s = T,
+  the joint torques (seed Eqs. 3 and 7, with the corrected inverse of
+  docs/errata.md);
+- the estimator (:mod:`sailforce.estimator`, and through it
+  :func:`sailforce.compensation.estimate_force` and
+  :meth:`sailforce.Calibration.estimate`): M is the calibration's sensing
+  matrix and s the offset-free readings.
+
+Both go through :func:`torque_entries` (J^T), :func:`solve_2x2` (Cramer's
+rule) and the singularity predicate :func:`sailforce.kinematics.is_singular`.
+
+Two back-ends compute it, with the same arithmetic:
+
+- ``"compiled"``: numba (:mod:`sailforce.kernel._compiled`), one pose at a
+  time with a polynomial sine and cosine; about 10-20 times numpy's speed
+  (``make bench``).  Used when numba imports.
+- ``"numpy"``: numpy ufuncs on blocks that stay in the cache.  The
+  reference, and the fallback without numba.
+
+They agree to rounding (within 1e-13 relative, tested), and on every
+singular verdict exactly: a pose within :data:`VERDICT_BAND` of the
+threshold is settled by the numpy path.  Choose with the environment
+variable ``SAILFORCE_KERNEL`` (``numpy`` or ``compiled``) or
+:func:`use_backend`; the default is ``compiled`` when numba is installed.
+"""
+
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+from typing import Iterator
+
+import numpy as np
+
+from ..errors import SailError
+from ..kinematics import is_singular, sin_delta_from_trig
+
+#: The four entries (m00, m01, m10, m11) of a batch of 2x2 matrices, each of the batch shape.
+Entries = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+BACKENDS = ("compiled", "numpy")
+#: The environment variable that picks the back-end.
+BACKEND_ENV = "SAILFORCE_KERNEL"
+#: |sin(delta)| this close to the singular threshold gets its verdict from libm's sin and cos (numpy's):
+#: the compiled polynomial's sin(delta) = s1 c2 - c1 s2 is within ~4 ulp (1e-15) of libm's; the band is 100 times that.
+VERDICT_BAND = 1e-13
+#: The compiled kernel's ``singular`` flag for a pose inside :data:`VERDICT_BAND` (0 regular, 1 singular).
+NEAR = 2
+
+_module = None  # the compiled module, once imported
+_chosen: str | None = None
+
+
+def torque_entries(l2: float, l3: float, sin1, cos1, sin2, cos2) -> Entries:
+    """J^T as entries from the joint angles' sines and cosines: rows l3 (-sin th1, cos th1), l2 (-sin th2, cos th2) (seed Eq. 4)."""
+    return (-l3 * sin1, l3 * cos1, -l2 * sin2, l2 * cos2)
+
+
+def solve_2x2(m: Entries, b1, b2, skip) -> tuple[np.ndarray, np.ndarray]:
+    """Solve M x = b by Cramer's rule (cf. seed Eq. 8); NaN where ``skip`` or det M = 0.
+
+    ``m`` is M's entries ``(m00, m01, m10, m11)``.  The only place sailforce solves its 2x2 systems.
+    """
+    m00, m01, m10, m11 = m
+    det = m00 * m11 - m01 * m10
+    det = np.where(skip | (det == 0.0), np.nan, det)
+    return (m11 * b1 - m01 * b2) / det, (m00 * b2 - m10 * b1) / det
+
+
+def backend() -> str:
+    """The back-end in use: ``"compiled"`` or ``"numpy"``."""
+    global _chosen
+    if _chosen is None:
+        wanted = os.environ.get(BACKEND_ENV, "").strip().lower() or None
+        if wanted is not None and wanted not in BACKENDS:
+            raise SailError(f"{BACKEND_ENV}={wanted!r}: expected one of {', '.join(BACKENDS)}")
+        _chosen = "compiled" if wanted != "numpy" and _load_compiled(required=wanted == "compiled") else "numpy"
+    return _chosen
+
+
+@contextmanager
+def use_backend(name: str) -> Iterator[None]:
+    """Run a block of code on one back-end (``"compiled"`` or ``"numpy"``), then restore the previous one.
+
+    ``"compiled"`` raises :class:`SailError` if numba is not installed.
+    """
+    global _chosen
+    if name not in BACKENDS:
+        raise SailError(f"kernel back-end {name!r}: expected one of {', '.join(BACKENDS)}")
+    previous = backend()
+    if name == "compiled":
+        _load_compiled(required=True)
+    _chosen = name
+    try:
+        yield
+    finally:
+        _chosen = previous
+
+
+def compiled():
+    """The compiled module, or None on the numpy back-end."""
+    return _module if backend() == "compiled" else None
+
+
+def _load_compiled(required: bool) -> bool:
+    global _module
+    if _module is None:
+        try:
+            from . import _compiled as module
+        except ImportError as exc:
+            if required:
+                raise SailError(f"the compiled kernel needs numba, which does not import here ({exc}); "
+                                f"install it (pip install numba) or set {BACKEND_ENV}=numpy") from None  # fmt: skip
+            return False
+        _module = module
+    return True
+
+
+def sincos(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sin theta, cos theta) of a 1-D float array, by the back-end in use."""
+    module = compiled()
+    if module is None:
+        return np.sin(theta), np.cos(theta)
+    s, c = np.empty(theta.shape), np.empty(theta.shape)
+    module.sincos_array(theta, s, c)
+    return s, c
+
+
+def force_from_torques(l2: float, l3: float, theta1, theta2, t1, t2, min_sin_delta: float):
+    """F = (J^T)^-1 T [N] on one block of 1-D arrays: ``(fx, fy, singular)``, NaN where singular.
+
+    J^T from :func:`torque_entries`, solved by :func:`solve_2x2` (seed Eqs. 3
+    and 8 with the corrected inverse, docs/errata.md); ``singular`` is
+    :func:`sailforce.kinematics.is_singular` of sin(theta1 - theta2).
+    """
+    module = compiled()
+    if module is None:
+        return _force_numpy(l2, l3, theta1, theta2, t1, t2, min_sin_delta)
+    n = theta1.size
+    fx, fy, flag = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
+    module.force_from_torques(l2, l3, theta1, theta2, t1, t2, min_sin_delta, fx, fy, flag)
+    singular = flag == 1
+    fx[singular] = np.nan
+    fy[singular] = np.nan
+    near = np.flatnonzero(flag == NEAR)
+    if near.size:  # verdicts at the threshold: numpy's
+        fx[near], fy[near], singular[near] = _force_numpy(l2, l3, *(a[near] for a in (theta1, theta2, t1, t2)), min_sin_delta)
+    return fx, fy, singular
+
+
+def _force_numpy(l2, l3, theta1, theta2, t1, t2, min_sin_delta):
+    trig = np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)
+    singular = is_singular(sin_delta_from_trig(*trig), min_sin_delta)
+    fx, fy = solve_2x2(torque_entries(l2, l3, *trig), t1, t2, singular)
+    return fx, fy, singular
