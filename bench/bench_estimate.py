@@ -15,8 +15,8 @@ import pyarrow.csv as pacsv
 from _timing import best_of
 
 from sailforce import kernel
-from sailforce.calfile import Calibration
-from sailforce.compensation import MatrixCompensator
+from sailforce.calibration.file import Calibration
+from sailforce.calibration.compensation import MatrixCompensator
 from sailforce.arm import Arm
 
 N_CALL = 1_000_000

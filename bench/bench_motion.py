@@ -2,7 +2,7 @@
 
 A simulated free-motion recording identifies the term (1 kg handle, 3 deg
 tilt); the task session is then tiled to 2e6 samples at 1 kHz and estimated
-by :func:`sailforce.inertial.estimate_moving` (rates from the angles, the
+by :func:`sailforce.calibration.inertial.estimate_moving` (rates from the angles, the
 zero-phase rate filter, the dynamic term) and by the static
 ``Calibration.estimate`` on the same samples, alternately, best of 3.
 """
@@ -12,10 +12,10 @@ from __future__ import annotations
 import numpy as np
 from _timing import best_of
 
-from sailforce.calfile import Calibration
-from sailforce.calibration import fit_calibration
-from sailforce.inertial import estimate_moving, fit_dynamic_term
-from sailforce.motion import reaching, record
+from sailforce.calibration.file import Calibration
+from sailforce.calibration.fit import fit_calibration
+from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term
+from sailforce.motion.reaching import reaching, record
 from sailforce.robot import Handle, Plane, Robot
 from sailforce.synthetic import calibration_session
 

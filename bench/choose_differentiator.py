@@ -1,8 +1,8 @@
-"""Why sailforce.differentiate uses a 0.1 s, order-4 local polynomial fit: the error of each candidate.
+"""Why sailforce.motion.differentiate uses a 0.1 s, order-4 local polynomial fit: the error of each candidate.
 
     .venv/bin/python bench/choose_differentiator.py
 
-A simulated session (sailforce.motion: 8 reaches of 0.3 m at 3 m/s^2, 1 kHz,
+A simulated session (sailforce.motion.reaching: 8 reaches of 0.3 m at 3 m/s^2, 1 kHz,
 16-bit encoders, a 1 kg handle) is differentiated by Savitzky-Golay fits of
 several windows and orders, and by central differences after a zero-phase
 Butterworth low-pass; the RMS errors of the rates and accelerations against
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from sailforce.motion import reaching, record
+from sailforce.motion.reaching import reaching, record
 from sailforce.robot import Handle, Robot
 
 EDGE = 200  #: samples left out at each end, where the filters run off the data

@@ -4,7 +4,7 @@
 
 The readers and what each case checks:
 
-- measurement tables (``sailforce.tables``, what ``sail estimate`` and
+- measurement tables (``sailforce.io.tables``, what ``sail estimate`` and
   ``sail calibrate`` read), in file mode at a random chunk size and in
   stream mode: either a :class:`TableError` for the header, or one row per
   line in both, with the same malformed flags and values;
@@ -30,11 +30,11 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import sailforce.tables as tables
-from sailforce.calfile import Calibration, CalibrationFileError
+import sailforce.io.tables as tables
+from sailforce.calibration.file import Calibration, CalibrationFileError
 from sailforce.errors import SailError
-from sailforce.io import TableError, read_numeric_csv
-from sailforce.robotfile import load_robot_file
+from sailforce.io.files import TableError, read_numeric_csv
+from sailforce.io.robotfile import load_robot_file
 
 ROOT = Path(__file__).resolve().parents[1]
 VALID = {

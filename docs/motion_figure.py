@@ -18,12 +18,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from sailforce.calfile import Calibration  # noqa: E402
-from sailforce.calibration import fit_calibration  # noqa: E402
-from sailforce.dynamics import base_parameters, inertial_parameters, parameter_vector  # noqa: E402
-from sailforce.estimator import OK  # noqa: E402
-from sailforce.inertial import estimate_moving, fit_dynamic_term  # noqa: E402
-from sailforce.motion import reaching, record  # noqa: E402
+from sailforce.calibration.file import Calibration  # noqa: E402
+from sailforce.calibration.fit import fit_calibration  # noqa: E402
+from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector  # noqa: E402
+from sailforce.calibration.estimator import OK  # noqa: E402
+from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term  # noqa: E402
+from sailforce.motion.reaching import reaching, record  # noqa: E402
 from sailforce.robot import Handle, Plane, Robot  # noqa: E402
 from sailforce.synthetic import calibration_session  # noqa: E402
 

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from sailforce.calfile import Calibration, CalibrationFileError, checksum
-from sailforce.calibration import equivalent_capacity, fit_calibration
-from sailforce.compensation import CompensationError, MatrixCompensator
-from sailforce.estimator import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
+from sailforce.calibration.file import Calibration, CalibrationFileError, checksum
+from sailforce.calibration.fit import equivalent_capacity, fit_calibration
+from sailforce.calibration.compensation import CompensationError, MatrixCompensator
+from sailforce.calibration.estimator import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
 from sailforce.fem.model import build_model
 from sailforce.fem.response import simulate_model
 from sailforce.robot import Robot
@@ -184,3 +184,34 @@ def test_every_status():
 def test_noise_model_quantizes_to_counts():
     counts, _, clean = recording(ROBOT, 1.2, 0.1, 3.0, 4.0, noise=NoiseModel(noise_fraction=0.0))
     np.testing.assert_array_equal(counts, np.round(clean))
+
+
+def test_files_follow_the_published_schema(tmp_path):
+    """calibration.schema.json describes what `sail calibrate` writes: matrix, seed and dynamic files validate,
+    its required fields are the loader's, and structurally broken files fail both."""
+    from dataclasses import replace
+    from importlib.resources import files
+
+    import jsonschema
+
+    from sailforce.calibration import file as calfile
+    from sailforce.calibration.inertial import prior_term
+
+    schema = json.loads(files("sailforce.calibration").joinpath("calibration.schema.json").read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    assert tuple(schema["required"]) == calfile.REQUIRED
+    t1, t2, fx, fy, counts, _ = calibration_set(seed=4)
+    seed_model, offsets, _ = fit_calibration(ROBOT.arm, t1, t2, fx, fy, counts[:, 0], counts[:, 1], kind="seed")
+    matrix = _simple_calibration()
+    for cal in (matrix, replace(matrix, model=seed_model), replace(matrix, dynamics=prior_term(ROBOT), dynamics_source="prior")):
+        cal.save(tmp_path / "cal.json")
+        data = json.loads((tmp_path / "cal.json").read_text())
+        jsonschema.validate(data, schema)
+        assert Calibration.from_dict(data).kind == cal.kind
+    broken = matrix.to_dict()
+    broken["model"]["kind"] = "cubic"
+    broken["checksum"] = checksum({k: v for k, v in broken.items() if k != "checksum"})
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(broken, schema)
+    with pytest.raises(CalibrationFileError, match="model.kind"):
+        Calibration.from_dict(broken)

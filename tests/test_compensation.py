@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sailforce import Arm, SingularPoseError
-from sailforce.compensation import (
+from sailforce.calibration.compensation import (
     AmplitudePhaseCompensator,
     CompensationError,
     MatrixCompensator,
@@ -20,7 +20,7 @@ from sailforce.compensation import (
     sinusoid_rows,
     torque_rows,
 )
-from sailforce.regressors import PolynomialFit, select_order
+from sailforce.calibration.regressors import PolynomialFit, select_order
 from sailforce.report.results import SEED_REGRESSORS
 from sailforce.statics import end_effector_force, joint_torques
 
@@ -186,7 +186,7 @@ def test_matrix_compensator_refuses_undetermined_data():
 def test_matrix_compensator_rotation_invariance():
     """M = C(delta) J^T obeys the delta-only law M(th1, th2) = M(delta, 0) R(-th2) (docs/errata.md, Physics)."""
     comp = MatrixCompensator(Arm(), np.random.default_rng(3).normal(size=(3, 2, 2)), (0.2, 2.0))
-    from sailforce.compensation import rotation
+    from sailforce.calibration.compensation import rotation
 
     theta2 = 0.7
     lhs = comp.sensing_matrix(1.5 + theta2, theta2)

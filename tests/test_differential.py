@@ -20,12 +20,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import sailforce.tables as tables
-from sailforce.calfile import Calibration
-from sailforce.estimator import INVALID, STATUS_NAMES
+import sailforce.io.tables as tables
+from sailforce.calibration.file import Calibration
+from sailforce.calibration.estimator import INVALID, STATUS_NAMES
 from sailforce.kinematics import sin_delta_from_trig
-from sailforce.streaming import estimate_lines, stream_estimate
-from sailforce.tables import READING_COLUMNS, read_chunks, read_line
+from sailforce.calibration.streaming import estimate_lines, stream_estimate
+from sailforce.io.tables import READING_COLUMNS, read_chunks, read_line
 
 ROOT = Path(__file__).resolve().parents[1]
 CAL_PATH = ROOT / "c" / "examples" / "calibration.json"
@@ -139,8 +139,8 @@ def test_cli_file_and_stdin_give_the_same_bytes(tmp_path):
 def test_one_singularity_verdict_at_the_threshold():
     """Poses within 1e-12 of the threshold get one verdict from every entry point (there were 54 disagreements in 200,000)."""
     from sailforce import SINGULAR_SIN_DELTA, Arm
-    from sailforce.compensation import TorqueScale, estimate_force
-    from sailforce.estimator import SINGULAR
+    from sailforce.calibration.compensation import TorqueScale, estimate_force
+    from sailforce.calibration.estimator import SINGULAR
     from sailforce.statics import end_effector_force, singular_poses
     from sailforce.sweep import check_not_singular
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from sailforce import Arm
-from sailforce.dynamics import (
+from sailforce.motion.dynamics import (
     PARAMETERS,
     BodyInertia,
     InertialParameters,
@@ -268,8 +268,8 @@ def test_gravity_coefficients_are_linear_in_gravity():
 
 def test_prior_from_the_robot_file(tmp_path):
     """Uniform bars: l3's mass, first moment and inertia in closed form, the handle on top; outer parts split at the cell."""
-    from sailforce.dynamics import inertial_parameters
-    from sailforce.robotfile import load_robot_file
+    from sailforce.motion.dynamics import inertial_parameters
+    from sailforce.io.robotfile import load_robot_file
 
     (tmp_path / "r.toml").write_text(
         "[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[handle]\nmass = 1.0\nposition = 1.0\n"

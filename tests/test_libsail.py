@@ -18,14 +18,14 @@ import pytest
 from click.testing import CliRunner
 
 from sailforce import SINGULAR_SIN_DELTA, Arm
-from sailforce.calfile import Calibration
+from sailforce.calibration.file import Calibration
 from sailforce.cli import cli
-from sailforce.compensation import AmplitudePhaseCompensator, MatrixCompensator
-from sailforce.estimator import DELTA_RANGE_SLACK, STATUS_NAMES
-from sailforce.differentiate import GAP_FACTOR
-from sailforce.export_c import MAX_HALF_WINDOW, MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
-from sailforce.regressors import PolynomialFit
-from sailforce.streaming import estimate_lines
+from sailforce.calibration.compensation import AmplitudePhaseCompensator, MatrixCompensator
+from sailforce.calibration.estimator import DELTA_RANGE_SLACK, STATUS_NAMES
+from sailforce.motion.differentiate import GAP_FACTOR
+from sailforce.calibration.export_c import MAX_HALF_WINDOW, MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
+from sailforce.calibration.regressors import PolynomialFit
+from sailforce.calibration.streaming import estimate_lines
 
 ROOT = Path(__file__).resolve().parents[1]
 HEADER = (ROOT / "c" / "include" / "sail.h").read_text()

@@ -10,14 +10,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sailforce.calfile import Calibration
-from sailforce.calibration import fit_calibration
-from sailforce.differentiate import Differentiator, MotionDataError, RateTracker, derivatives
-from sailforce.dynamics import base_parameters, inertial_parameters, parameter_vector
-from sailforce.estimator import MOTION_UNKNOWN, OK
-from sailforce.inertial import estimate_moving, fit_dynamic_term
+from sailforce.calibration.file import Calibration
+from sailforce.calibration.fit import fit_calibration
+from sailforce.motion.differentiate import Differentiator, MotionDataError, RateTracker, derivatives
+from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector
+from sailforce.calibration.estimator import MOTION_UNKNOWN, OK
+from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term
 from sailforce.kinematics import forward
-from sailforce.motion import MINJERK_PEAK_ACCELERATION, MINJERK_PEAK_SPEED, minimum_jerk, reaching, record
+from sailforce.motion.reaching import MINJERK_PEAK_ACCELERATION, MINJERK_PEAK_SPEED, minimum_jerk, reaching, record
 from sailforce.robot import Handle, Plane, Robot
 from sailforce.synthetic import calibration_session
 
@@ -109,7 +109,7 @@ def test_kernels_are_savitzky_golay(width, order):
     """The polynomial kernels (what libsail evaluates) are scipy's Savitzky-Golay coefficients."""
     from scipy.signal import savgol_coeffs
 
-    from sailforce.differentiate import _coefficients
+    from sailforce.motion.differentiate import _coefficients
 
     first, second = _coefficients(width, order, 1e-3)
     expected = savgol_coeffs(width, order, deriv=1, delta=1e-3, use="dot"), savgol_coeffs(width, order, deriv=2, delta=1e-3, use="dot")
@@ -171,9 +171,9 @@ def test_offline_blocks_equal_the_tracker(session, dt):
     """The offline estimate computes each block's rates where it estimates it (RatePlan): the very numbers of
     the tracker's rates (one pass, as `sail estimate` streams them) fed to the estimator, across gaps, invalid
     angles and jittered steps, and across the estimator's block edges."""
-    from sailforce.estimator import BLOCK
-    from sailforce.estimator import estimate_moving as estimate_with_rates
-    from sailforce.inertial import motion_states
+    from sailforce.calibration.estimator import BLOCK
+    from sailforce.calibration.estimator import estimate_moving as estimate_with_rates
+    from sailforce.calibration.inertial import motion_states
 
     _, cal, free, task = session
     fit = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1])
@@ -200,7 +200,7 @@ def test_offline_blocks_equal_the_tracker(session, dt):
 @pytest.mark.parametrize("threads", [2, 3])
 def test_threaded_blocks_equal_one_thread(session, threads):
     """The estimator's blocks run on threads for large inputs: bit for bit what one thread gives, static and moving."""
-    from sailforce import estimator
+    from sailforce.calibration import estimator
 
     _, cal, free, _ = session
     fit = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1])
@@ -344,7 +344,7 @@ def test_estimate_gaps_invalid_rows_and_measured_rates(rig, tmp_path):
     expected = set(range(50)) | set(range(2950, 3050)) | set(range(4950, 5051)) - {5000} | set(range(len(cut) - 50, len(cut)))
     assert set(unknown) == expected and table.status[5000] == "invalid"
     # measured rates: the simulation's true joint rates, so every row is known
-    from sailforce.motion import reaching
+    from sailforce.motion.reaching import reaching
     from sailforce.robot import Handle, Plane, Robot
 
     motion = reaching(Robot(handle=Handle(mass=1.0), plane=Plane(tilt_deg=3.0)), reaches=8)

@@ -5,12 +5,12 @@ from __future__ import annotations
 import pytest
 
 from sailforce import Arm, GeometryError, RobotFileError
-from sailforce.robotfile import load_robot_file, template, write_template
+from sailforce.io.robotfile import load_arm, load_robot_file, template, write_template
 
 
 def test_template_round_trips_to_the_default_arm(tmp_path):
     path = write_template(tmp_path / "robot.toml")
-    assert Arm.from_toml(path) == Arm()
+    assert load_arm(path) == Arm()
 
 
 def test_template_is_commented():
@@ -28,7 +28,7 @@ def test_write_refuses_to_overwrite(tmp_path):
 def test_custom_lengths(tmp_path):
     path = tmp_path / "r.toml"
     path.write_text("[links]\nl1 = 0.25\nl2 = 0.4\nl3 = 0.6\nl4 = 0.4\n")
-    assert Arm.from_toml(path) == Arm(l1=0.25, l2=0.4, l3=0.6, l4=0.4)
+    assert load_arm(path) == Arm(l1=0.25, l2=0.4, l3=0.6, l4=0.4)
 
 
 @pytest.mark.parametrize(
@@ -57,7 +57,7 @@ def test_bad_files_are_refused_with_the_file_named(tmp_path, text, message):
 
 def test_missing_file_says_how_to_make_one(tmp_path):
     with pytest.raises(RobotFileError, match="no such file; `sail robot init"):
-        Arm.from_toml(tmp_path / "nope.toml")
+        load_arm(tmp_path / "nope.toml")
 
 
 @pytest.mark.parametrize("kwargs", [{"l1": 0.0}, {"l2": -1.0, "l4": -1.0}, {"l3": float("inf")}, {"l1": True}])

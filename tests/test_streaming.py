@@ -17,11 +17,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
-from sailforce.calfile import Calibration
+from sailforce.calibration.file import Calibration
 from sailforce.cli import cli
-from sailforce.filters import FilterError, LowPass
-from sailforce.streaming import estimate_lines, stream_estimate
-from sailforce.tables import READING_COLUMNS, read_chunks
+from sailforce.calibration.filters import FilterError, LowPass
+from sailforce.calibration.streaming import estimate_lines, stream_estimate
+from sailforce.io.tables import READING_COLUMNS, read_chunks
 
 from .test_calibration import ROBOT, calibration_set
 
@@ -80,7 +80,7 @@ def test_chunked_equals_whole_and_parquet(files, tmp_path):
     for i in range(n):
         lines.append(f"{rng.uniform(30, 150):.4f},{rng.uniform(-10, 10):.4f},{rng.integers(-4e5, 4e5)},{rng.integers(-4e5, 4e5)},t{i}")
     (tmp_path / "big.csv").write_text("\n".join(lines) + "\n")
-    import sailforce.tables as tables
+    import sailforce.io.tables as tables
 
     whole = stream_estimate(cal, tmp_path / "big.csv", tmp_path / "whole.csv")
     small = tables.CHUNK_BYTES

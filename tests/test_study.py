@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from sailforce.cli import cli
-from sailforce.compensation import torque_rows
+from sailforce.calibration.compensation import torque_rows
 from sailforce.robot import Robot
 from sailforce.study import TABLE4_COLUMNS, Protocol, run_study
 

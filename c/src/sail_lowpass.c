@@ -1,7 +1,7 @@
 /*
  * Butterworth low-pass on the loads, second-order sections in transposed
  * direct form II, as scipy.signal.sosfilt; state carried across blocks and
- * started at the first valid reading's steady state (sailforce.filters.LowPass).
+ * started at the first valid reading's steady state (sailforce.calibration.filters.LowPass).
  */
 #include "sail.h"
 #include "sail_math.h"

@@ -1,7 +1,7 @@
 /*
  * Force in motion: the dynamic term and the causal rate filter.  Mirrors
- * sailforce.estimator.estimate_moving (the force) and
- * sailforce.differentiate.RateTracker fed one reading at a time (the rates):
+ * sailforce.calibration.estimator.estimate_moving (the force) and
+ * sailforce.motion.differentiate.RateTracker fed one reading at a time (the rates):
  * see sail.h and docs/dynamics.md.
  */
 #include "sail.h"
@@ -31,7 +31,7 @@ static SAIL_ALWAYS_INLINE int estimate_moving(const sail_calibration *cal, const
     cd = trig[1] * trig[3] + trig[0] * trig[2];
     w1 = omega1 * omega1;
     w2 = omega2 * omega2;
-    /* the cells' dynamic shears (sailforce.dynamics.ShearModel; Eqs. D1-D2 of docs/dynamics.md) */
+    /* the cells' dynamic shears (sailforce.motion.dynamics.ShearModel; Eqs. D1-D2 of docs/dynamics.md) */
     v1 = dyn->k[0][0] * alpha1 + dyn->k[0][1] * w1 + dyn->k[0][2] * (alpha2 * cd + w2 * sd)
          + dyn->k[0][3] * (w2 * cd - alpha2 * sd) + dyn->k[0][4] * trig[1] + dyn->k[0][5] * trig[0];
     v2 = dyn->k[1][0] * alpha2 + dyn->k[1][1] * w2 + dyn->k[1][2] * (alpha1 * cd - w1 * sd)

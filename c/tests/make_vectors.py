@@ -9,7 +9,7 @@ For each model kind that ``sail calibrate`` produces (matrix, seed) it:
 2. runs ``sail calibrate --model KIND`` and ``sail export-c`` on it, giving
    ``cal_KIND.json`` and ``cal_KIND.h`` (constant ``sail_cal_KIND``);
 3. writes ``vectors_KIND.csv``: readings and what
-   :meth:`sailforce.calfile.Calibration.estimate` returns for them, covering
+   :meth:`sailforce.calibration.file.Calibration.estimate` returns for them, covering
    every status, status precedence, and NaN and infinite fields.
 
 For the dynamic term it runs a simulated rig's static and free-motion
@@ -18,10 +18,10 @@ calibrate --free-motion`` and ``sail export-c --sample-rate-hz 1000``
 (``cal_motion.h``, ``sail_cal_motion`` and ``sail_cal_motion_dynamics``),
 and writes ``motion.csv``: a task session with a gap, a step back in time,
 an invalid angle, an invalid load and saturated readings, and what
-:func:`sailforce.inertial.estimate_moving` returns for each row.
+:func:`sailforce.calibration.inertial.estimate_moving` returns for each row.
 
 It also writes ``lowpass.csv``, a reading sequence with invalid rows and the
-loads :class:`sailforce.filters.LowPass` makes of it, for the filter exported
+loads :class:`sailforce.calibration.filters.LowPass` makes of it, for the filter exported
 with the matrix calibration (``sail_cal_matrix_lowpass``).
 
 Readings keep clear of every status threshold (relative margins of 1e-3 or
@@ -38,9 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sailforce.calfile import Calibration
-from sailforce.estimator import DELTA_RANGE_SLACK
-from sailforce.filters import LowPass
+from sailforce.calibration.file import Calibration
+from sailforce.calibration.estimator import DELTA_RANGE_SLACK
+from sailforce.calibration.filters import LowPass
 from sailforce.robot import Robot
 from sailforce.statics import SINGULAR_SIN_DELTA
 from sailforce.synthetic import calibration_session
@@ -126,7 +126,7 @@ def _motion_vectors(outdir: Path) -> None:
           str(outdir / "rig_free.csv"), "-o", str(outdir / "cal_motion.json"))  # fmt: skip
     _sail("export-c", str(outdir / "cal_motion.json"), "-o", str(outdir / "cal_motion.h"), "--name", "sail_cal_motion",
           "--sample-rate-hz", str(MOTION_RATE_HZ))  # fmt: skip
-    from sailforce.inertial import estimate_moving
+    from sailforce.calibration.inertial import estimate_moving
 
     cal = Calibration.load(outdir / "cal_motion.json")
     task = np.genfromtxt(outdir / "rig_task.csv", delimiter=",", names=True)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 from . import kinematics, statics
 from .errors import GeometryError
@@ -71,13 +70,6 @@ class Arm:
                 f"l3 = {self.l3:g} m must exceed l1 = {self.l1:g} m: l3 runs from P2 "
                 f"through P3 (at {self.l1:g} m, since |P2 P3| = l1) out to the end effector A"
             )
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> "Arm":
-        """Read the ``[links]`` table of a robot file (see ``sail robot init``)."""
-        from .robotfile import load_robot_file
-
-        return load_robot_file(path).arm
 
     # -- kinematics (seed Eqs. 1, 4) ------------------------------------
     def forward(self, theta1, theta2):

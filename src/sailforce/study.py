@@ -9,8 +9,8 @@
    deg steps: 192 runs each;
 3. Table 4: amplitude and phase of each load-cell curve against the torque
    predicted by Eq. 7, from least-squares sinusoid fits
-   (:mod:`sailforce.compensation` states the sign convention);
-4. polynomial regressors of each Table 4 column (:mod:`sailforce.regressors`);
+   (:mod:`sailforce.calibration.compensation` states the sign convention);
+4. polynomial regressors of each Table 4 column (:mod:`sailforce.calibration.regressors`);
 5. validation on the offset grids: theta2 = 0, theta1 = 22.5..127.5; then
    theta1 = 120, theta2 = -7.5..97.5; RMSE before and after compensation.
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .compensation import (
+from .calibration.compensation import (
     AmplitudePhaseCompensator,
     MatrixCompensator,
     SensingModel,
@@ -41,7 +41,7 @@ from .compensation import (
 )
 from .fem.model import build_model
 from .fem.response import ArmResponse, simulate_model
-from .regressors import DEFAULT_CRITERION, DEFAULT_THRESHOLD, PolynomialFit, select_order
+from .calibration.regressors import DEFAULT_CRITERION, DEFAULT_THRESHOLD, PolynomialFit, select_order
 from .robot import Robot
 
 TABLE4_COLUMNS = ("delta_deg", "amplitude_1", "phase_1_deg", "amplitude_2", "phase_2_deg")

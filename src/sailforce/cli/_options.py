@@ -14,7 +14,8 @@ import click
 
 from ..arm import Arm
 from ..robot import JOINT_MODELS, Robot
-from ..robotfile import load_robot_file
+from ..io import robotfile
+from ..io.robotfile import load_robot_file
 from ..sweep import parse_spec
 
 
@@ -71,7 +72,7 @@ def joints_option(func):
 
 def load_arm(robot_path: Path | None) -> Arm:
     """The arm described by ``--robot``, or the default :class:`Arm`."""
-    return Arm() if robot_path is None else Arm.from_toml(robot_path)
+    return Arm() if robot_path is None else robotfile.load_arm(robot_path)
 
 
 def load_robot(robot_path: Path | None, joints: str | None = None) -> Robot:
@@ -106,7 +107,7 @@ def lowpass_options(func):
 
 def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: int | None, *,
                  rate_alone: bool = False):  # fmt: skip
-    """The :class:`sailforce.filters.LowPass` the options ask for, or None (``rate_alone``: the rate has another use)."""
+    """The :class:`sailforce.calibration.filters.LowPass` the options ask for, or None (``rate_alone``: the rate has another use)."""
     if lowpass_hz is None:
         if (sample_rate_hz is not None and not rate_alone) or order is not None:
             given = "--sample-rate-Hz" if sample_rate_hz is not None else "--lowpass-order"
@@ -114,6 +115,6 @@ def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: 
         return None
     if sample_rate_hz is None:
         raise click.BadParameter("needs --sample-rate-Hz", param_hint="--lowpass-Hz")
-    from ..filters import LowPass
+    from ..calibration.filters import LowPass
 
     return LowPass(lowpass_hz, sample_rate_hz, 2 if order is None else order)

@@ -11,11 +11,11 @@ import click
 import numpy as np
 from rich.console import Console
 
-from ..calfile import Calibration
-from ..calibration import MODEL_KINDS, equivalent_capacity, fit_calibration
+from ..calibration.file import Calibration
+from ..calibration.fit import MODEL_KINDS, equivalent_capacity, fit_calibration
 from ..errors import SailError
-from ..io import check_output
-from ..tables import READING_COLUMNS, REFERENCE_COLUMNS, TableError, read_all
+from ..io.files import check_output
+from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, TableError, read_all
 from . import cli
 from ._options import load_robot, robot_option
 
@@ -122,7 +122,7 @@ def calibrate_command(data, robot_path, output, kind, capacity, load_unit, free_
     if free_motion is not None:
         cal = _identify(console, cal, robot, free_motion)
     elif dynamics == "prior":
-        from ..inertial import prior_term
+        from ..calibration.inertial import prior_term
 
         cal = replace(cal, dynamics=prior_term(robot), dynamics_source="prior")
     cal.save(output)
@@ -138,7 +138,7 @@ def _identify(console: Console, cal: Calibration, robot, free_motion: Path) -> C
     """The dynamic term from a free-motion recording, on top of the static calibration ``cal``."""
     from rich.table import Table
 
-    from ..inertial import fit_dynamic_term, prior_term
+    from ..calibration.inertial import fit_dynamic_term, prior_term
 
     try:
         values = _clean_rows(free_motion, ("t_s",) + READING_COLUMNS, "A free-motion recording")

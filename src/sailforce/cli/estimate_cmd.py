@@ -9,10 +9,10 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ..calfile import Calibration
-from ..io import atomic_writer, check_output, table_format
-from ..streaming import estimate_lines, stream_estimate, table_motion
-from ..tables import READING_COLUMNS, TableError, csv_header, input_size, is_parquet, parquet_schema, read_line
+from ..calibration.file import Calibration
+from ..io.files import atomic_writer, check_output, table_format
+from ..calibration.streaming import estimate_lines, stream_estimate, table_motion
+from ..io.tables import READING_COLUMNS, TableError, csv_header, input_size, is_parquet, parquet_schema, read_line
 from . import cli
 from ._options import lowpass_options, make_lowpass
 from ._progress import progress_bar

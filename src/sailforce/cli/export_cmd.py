@@ -8,9 +8,9 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ..calfile import Calibration
-from ..export_c import calibration_header
-from ..io import atomic_writer, check_output
+from ..calibration.file import Calibration
+from ..calibration.export_c import calibration_header
+from ..io.files import atomic_writer, check_output
 from . import cli
 from ._options import lowpass_options, make_lowpass
 

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ..fem.response import TRANSDUCTIONS
-from ..regressors import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD
+from ..calibration.regressors import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD
 from ..robot import JOINT_MODELS
 from ..study import StudyResult, run_study
 from . import cli

@@ -9,7 +9,7 @@ import click
 from rich.console import Console
 from rich.table import Table
 
-from ..robotfile import write_template
+from ..io.robotfile import write_template
 from . import cli
 from ._options import load_robot, robot_option
 
@@ -48,7 +48,7 @@ def robot_show(robot_path: Path | None) -> None:
 
 
 def _print_inertia(console: Console, robot_) -> None:
-    from ..dynamics import BODIES, base_parameters, inertial_parameters, parameter_vector
+    from ..motion.dynamics import BODIES, base_parameters, inertial_parameters, parameter_vector
 
     params = inertial_parameters(robot_)
     table = Table(title="inertial parameters beyond the cells (prior from sections, densities and the handle)")

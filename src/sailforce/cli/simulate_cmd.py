@@ -12,7 +12,7 @@ from rich.console import Console
 from .. import __version__
 from ..fem.model import build_model
 from ..fem.response import TRANSDUCTION_UNITS, TRANSDUCTIONS, simulate_model
-from ..io import check_output, numeric_table_writer, table_format, write_json
+from ..io.files import check_output, numeric_table_writer, table_format, write_json
 from ..sweep import COLUMNS, check_not_singular, pose_grid, sweep_rows
 from . import cli
 from ._options import FINITE, joints_option, load_robot, robot_option, spec

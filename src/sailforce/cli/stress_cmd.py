@@ -10,7 +10,7 @@ import numpy as np
 
 from ..fem.response import member_stresses, simulate
 from ..fem.model import MEMBERS
-from ..io import atomic_writer, check_output
+from ..io.files import atomic_writer, check_output
 from ..sweep import check_not_singular
 from . import cli
 from ._options import FINITE, joints_option, load_robot, robot_option, spec

@@ -9,8 +9,8 @@ by Cramer's rule (cf. seed Eq. 8):
 - statics (:func:`sailforce.statics.end_effector_force`): M = J^T and s = T,
   the joint torques (seed Eqs. 3 and 7, with the corrected inverse of
   docs/errata.md);
-- the estimator (:mod:`sailforce.estimator`, and through it
-  :func:`sailforce.compensation.estimate_force` and
+- the estimator (:mod:`sailforce.calibration.estimator`, and through it
+  :func:`sailforce.calibration.compensation.estimate_force` and
   :meth:`sailforce.Calibration.estimate`): M is the calibration's sensing
   matrix and s the offset-free readings.
 
@@ -42,6 +42,7 @@ import numpy as np
 
 from ..errors import SailError
 from ..kinematics import is_singular, sin_delta_from_trig
+from .verdict import NEAR, VERDICT_BAND  # noqa: F401 (re-exported)
 
 #: The four entries (m00, m01, m10, m11) of a batch of 2x2 matrices, each of the batch shape.
 Entries = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
@@ -49,11 +50,6 @@ Entries = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 BACKENDS = ("compiled", "numpy")
 #: The environment variable that picks the back-end.
 BACKEND_ENV = "SAILFORCE_KERNEL"
-#: |sin(delta)| this close to the singular threshold gets its verdict from libm's sin and cos (numpy's):
-#: the compiled polynomial's sin(delta) = s1 c2 - c1 s2 is within ~4 ulp (1e-15) of libm's; the band is 100 times that.
-VERDICT_BAND = 1e-13
-#: The compiled kernel's ``singular`` flag for a pose inside :data:`VERDICT_BAND` (0 regular, 1 singular).
-NEAR = 2
 
 _module = None  # the compiled module, once imported
 _chosen: str | None = None

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from ..status import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
-from . import NEAR, VERDICT_BAND
+from .verdict import NEAR, VERDICT_BAND
 
 # x = k pi/2 + r with |r| <= pi/4 (Cody and Waite): pi/2 in three parts of 33 significant bits, so k P1 and
 # k P2 are exact for |k| < 2^20, |x| < 1.6e6 rad.

@@ -10,7 +10,7 @@ import numpy as np
 from markdown_it import MarkdownIt
 
 from .. import __version__
-from ..io import atomic_writer
+from ..io.files import atomic_writer
 from ..study import StudyResult
 from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..io import atomic_writer, read_numeric_csv, write_json
+from ..io.files import atomic_writer, read_numeric_csv, write_json
 from ..study import TABLE4_COLUMNS, StudyResult
 
 #: The seed's published regressors (Section 3, after Table 4), highest power first.

@@ -47,9 +47,9 @@ from dataclasses import astuple, dataclass, fields
 
 import numpy as np
 
-from ._validate import as_float_arrays
-from .errors import SailError
-from .kinematics import Links
+from .._validate import as_float_arrays
+from ..errors import SailError
+from ..kinematics import Links
 
 BODIES = ("outer1", "outer2", "l4", "l3")
 BODY_PARAMETERS = ("m", "hx", "hy", "I")

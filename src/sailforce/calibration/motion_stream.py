@@ -2,7 +2,7 @@
 
 A table gives a motion when it has a time column ``t_s`` [s] (rates and
 accelerations are then derived from the angles by the calibration's
-differentiator, zero-phase: :class:`sailforce.differentiate.RateTracker`),
+differentiator, zero-phase: :class:`sailforce.motion.differentiate.RateTracker`),
 or measured rates ``omega1_dps, omega2_dps`` [deg/s] and accelerations
 ``alpha1_dps2, alpha2_dps2`` [deg/s^2].  Measured columns replace the
 derived ones wherever they are present.
@@ -20,11 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .differentiate import RateTracker
-from .dynamics import ShearModel
+from ..motion.differentiate import RateTracker
+from ..motion.dynamics import ShearModel
 from .estimator import estimate_moving
-from .io import TableError
-from .tables import Chunk
+from ..io.files import TableError
+from ..io.tables import Chunk
 
 TIME_COLUMN = "t_s"
 RATE_COLUMNS = ("omega1_dps", "omega2_dps")
@@ -67,13 +67,13 @@ def motion_columns(source: object, names: list[str]) -> MotionColumns | None:
 class MotionRows:
     """The joint rates [rad/s] and accelerations [rad/s^2] ``(n, 2)`` of a chunk's rows; NaN where unknown."""
 
-    cal: object  #: the :class:`sailforce.calfile.Calibration`
+    cal: object  #: the :class:`sailforce.calibration.file.Calibration`
     shear_model: ShearModel
     rate: np.ndarray
     accel: np.ndarray
 
     def estimate(self, cal, theta1, theta2, loads):
-        """``(fx, fy, status, inertial)`` with the dynamic term (:func:`sailforce.estimator.estimate_moving`)."""
+        """``(fx, fy, status, inertial)`` with the dynamic term (:func:`sailforce.calibration.estimator.estimate_moving`)."""
         return estimate_moving(cal.model, cal.offsets, cal.capacity, cal.delta_range, self.shear_model, theta1, theta2,
                                self.rate[:, 0], self.rate[:, 1], self.accel[:, 0], self.accel[:, 1], loads[:, 0],
                                loads[:, 1], threads=1)  # fmt: skip

@@ -7,7 +7,7 @@
   for a reach of length D.  Joint states follow exactly:
   ``qd = J^-1 xd`` and ``qdd = J^-1 (xdd - Jd qd)`` (seed Eq. 4's J).
 - **Recordings**: what the cells read, ``offset + k V`` with ``V`` the
-  shears of :mod:`sailforce.dynamics` (inertia, gravity and the hand's
+  shears of :mod:`sailforce.motion.dynamics` (inertia, gravity and the hand's
   force) and ``k`` the HX711 counts per newton of shear of the robot's cell,
   with the noise model of :mod:`sailforce.synthetic`; encoder angles
   quantized to ``counts_per_rev``.  For pin joints this is exact (the frame
@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .dynamics import cell_shears, inertial_parameters
-from .kinematics import forward, inverse, jacobian
-from .robot import Robot
-from .synthetic import HX711_COUNTS_PER_MV_V, NoiseModel
+from ..kinematics import forward, inverse, jacobian
+from ..robot import Robot
+from ..synthetic import HX711_COUNTS_PER_MV_V, NoiseModel
 
 #: Peak speed / (D / T) and peak acceleration / (D / T^2) of a minimum-jerk reach.
 MINJERK_PEAK_SPEED = 1.875

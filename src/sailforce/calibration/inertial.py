@@ -5,7 +5,7 @@ Readings model, for a calibration's sensing map ``M`` (``s = M F`` at rest)::
     s - offsets = M F + G V_dyn,     G = M (J^T)^-1 diag(l1, l2)
 
 ``V_dyn = Y(q, qd, qdd) beta`` are the cells' inertial and gravity shears
-(:mod:`sailforce.dynamics`, base parameters ``beta``) and ``G`` turns a
+(:mod:`sailforce.motion.dynamics`, base parameters ``beta``) and ``G`` turns a
 shear into readings the way the static map turns the shears ``T_i / l_i``
 of a force into readings (exact for pin joints).  So the estimate while
 moving is ``F = M^-1 (s - offsets) - (J^T)^-1 diag(l) V_dyn``.
@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .kernel import solve_2x2, torque_entries
-from .differentiate import Differentiator, MotionDataError, RatePlan, RateTracker, derivatives, sampling_period
-from .dynamics import PARAMETERS, ShearModel, base_parameters, shear_regressor
+from ..kernel import solve_2x2, torque_entries
+from ..motion.differentiate import Differentiator, MotionDataError, RatePlan, RateTracker, derivatives, sampling_period
+from ..motion.dynamics import PARAMETERS, ShearModel, base_parameters, shear_regressor
 
 #: Largest condition number of the (column-scaled) identification problem: beyond it some base parameter
 #: is barely excited, and its estimate is noise.  Measured: a session of 8 reaches in 8 directions gives ~30.
@@ -38,7 +38,7 @@ CV_FOLDS = 5
 
 @dataclass(frozen=True)
 class DynamicTerm:
-    """Identified base parameters (``values`` in :data:`sailforce.dynamics.PARAMETERS` ``columns``) and the differentiator."""
+    """Identified base parameters (``values`` in :data:`sailforce.motion.dynamics.PARAMETERS` ``columns``) and the differentiator."""
 
     columns: tuple[int, ...]
     values: tuple[float, ...]
@@ -86,7 +86,7 @@ def fit_dynamic_term(cal, t, theta1, theta2, load1, load2, *, differentiator: Di
                      max_condition: float = MAX_CONDITION) -> DynamicFit:  # fmt: skip
     """Identify the base parameters from a free-motion recording (nobody holding the handle).
 
-    ``cal`` is the static :class:`sailforce.calfile.Calibration` (its map and
+    ``cal`` is the static :class:`sailforce.calibration.file.Calibration` (its map and
     offsets); ``t`` [s], angles [rad], raw loads.  Rates and accelerations
     come from ``differentiator`` (zero-phase).  Refuses too little
     excitation (condition above ``max_condition``).
@@ -147,7 +147,7 @@ def motion_states(term: DynamicTerm, t, q, *, dt: float | None = None) -> tuple[
     """Joint rates and accelerations ``(n, 2)`` of angles ``q`` ``(n, 2)`` at times ``t``, as ``sail estimate`` derives them.
 
     Zero-phase, with the period ``dt`` given or probed from the first
-    steps (:class:`sailforce.differentiate.RateTracker`); NaN where the
+    steps (:class:`sailforce.motion.differentiate.RateTracker`); NaN where the
     motion is unknown (start, end, gaps, invalid samples): nothing raises.
     """
     tracker = RateTracker(term.differentiator, dt)
@@ -160,11 +160,11 @@ def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2, *, 
 
     ``rates`` ``(omega, alpha)``, each ``(n, 2)`` [rad/s, rad/s^2], are
     used when measured; otherwise they are derived from ``t`` and the
-    angles, block by block (:class:`~sailforce.differentiate.RatePlan`: the numbers of
+    angles, block by block (:class:`~sailforce.motion.differentiate.RatePlan`: the numbers of
     :func:`motion_states`).  ``inertial`` ``(n, 2)`` is the
     subtracted dynamic load in reading units; samples whose motion is
     unknown (start, end, around gaps) get NaN there and the status
-    :data:`sailforce.estimator.MOTION_UNKNOWN` unless a static status
+    :data:`sailforce.calibration.estimator.MOTION_UNKNOWN` unless a static status
     outranks it.
     """
     from .estimator import estimate_moving as run
@@ -188,7 +188,7 @@ def estimate_moving(cal, term: DynamicTerm, t, theta1, theta2, load1, load2, *, 
 
 def prior_term(robot, differentiator: Differentiator = Differentiator()) -> DynamicTerm:
     """The dynamic term the robot file predicts (sections, densities, cells, handle, tilt), unidentified."""
-    from .dynamics import inertial_parameters, parameter_vector
+    from ..motion.dynamics import inertial_parameters, parameter_vector
 
     base = base_parameters(robot.arm)
     values = base.of(parameter_vector(robot.arm, inertial_parameters(robot), robot.plane.gravity))

@@ -15,10 +15,10 @@ from typing import Any
 
 from dataclasses import replace
 
-from .arm import Arm
-from .errors import GeometryError, RobotFileError
-from .materials import RectangularSection
-from .robot import Robot
+from ..arm import Arm
+from ..errors import GeometryError, RobotFileError
+from ..materials import RectangularSection
+from ..robot import Robot
 
 LINK_KEYS = ("l1", "l2", "l3", "l4")
 MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
@@ -144,6 +144,11 @@ def write_template(path: str | Path, *, overwrite: bool = False) -> Path:
     except OSError as exc:
         raise RobotFileError(f"{path}: cannot write ({exc.strerror})") from None
     return path
+
+
+def load_arm(path: str | Path) -> Arm:
+    """The :class:`Arm` of a robot file's ``[links]`` table (see ``sail robot init``)."""
+    return load_robot_file(path).arm
 
 
 def load_robot_file(path: str | Path) -> RobotFile:

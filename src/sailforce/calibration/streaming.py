@@ -1,7 +1,7 @@
 """Estimating force over files of any size, and over a live line stream.
 
 Output columns: the input's, then ``fx_N, fy_N, force_N, angle_deg,
-status``; with a dynamic term (:mod:`sailforce.motion_stream`) also
+status``; with a dynamic term (:mod:`sailforce.calibration.motion_stream`) also
 ``inertial1, inertial2`` before ``status``.  Every input row gives exactly one output row, in order; rows
 without an estimate (invalid, singular) have empty force fields.
 
@@ -27,12 +27,12 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from .calfile import Calibration
+from .file import Calibration
 from .estimator import INVALID, STATUS_NAMES
 from .filters import LowPass
-from .io import atomic_writer
+from ..io.files import atomic_writer
 from .motion_stream import MotionColumns, MotionRows, MotionStage, motion_columns
-from .tables import (READING_COLUMNS, Chunk, Header, TableError, chunk_jobs, csv_chunks, csv_header, is_parquet,
+from ..io.tables import (READING_COLUMNS, Chunk, Header, TableError, chunk_jobs, csv_chunks, csv_header, is_parquet,
                      parquet_schema, read_header)
 
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
@@ -225,7 +225,7 @@ def stream_estimate(
 
     The output file appears only when complete (atomic write).  ``on_chunk``
     receives, for progress, the number of rows written and the part of the
-    input they came from (:func:`sailforce.tables.input_size`'s unit).  Chunks are estimated
+    input they came from (:func:`sailforce.io.tables.input_size`'s unit).  Chunks are estimated
     on :data:`WORKERS` threads and written in order.  When the calibration
     has a dynamic term and the table a motion (:func:`table_motion`), it is
     subtracted; ``dt`` [s] is then the sampling period (probed from the
@@ -297,7 +297,7 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     let alone truncated, for a stream that is not a table of readings.  The
     rows are those :func:`stream_estimate` writes for the same bytes.  With
     a dynamic term and derived rates, each row is written half a window
-    late (:meth:`sailforce.motion_stream.MotionStage.delay`), when its
+    late (:meth:`sailforce.calibration.motion_stream.MotionStage.delay`), when its
     window is complete; an interrupt writes the rows still waiting, their
     motion unknown, before it ends the stream.  With a dynamic term,
     ``on_motion`` receives the motion stage once the header is read (None

@@ -3,7 +3,7 @@
 The statuses and their precedence are those of :mod:`sailforce.status`
 (the same codes as libsail's ``enum``).  The static estimate is the force
 kernel's (:mod:`sailforce.kernel`); with a dynamic term
-(:mod:`sailforce.inertial`) the inertial load is subtracted too.
+(:mod:`sailforce.calibration.inertial`) the inertial load is subtracted too.
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import os
 
 import numpy as np
 
-from . import kernel
-from ._blocks import for_each_block
-from .kernel import solve_2x2, torque_entries
-from .kinematics import SINGULAR_SIN_DELTA, is_singular, sin_delta_from_trig
-from .status import EXTRAPOLATED, INVALID, MOTION_UNKNOWN, OK, SATURATED, SINGULAR, STATUS_NAMES  # noqa: F401 (re-exported)
+from .. import kernel
+from .._blocks import for_each_block
+from ..kernel import solve_2x2, torque_entries
+from ..kinematics import SINGULAR_SIN_DELTA, is_singular, sin_delta_from_trig
+from ..status import EXTRAPOLATED, INVALID, MOTION_UNKNOWN, OK, SATURATED, SINGULAR, STATUS_NAMES  # noqa: F401 (re-exported)
 
 #: Delta may leave the calibrated range by this much [rad] before the estimate
 #: counts as extrapolated: 0.01 deg, below encoder resolution of a held pose.
@@ -51,7 +51,7 @@ def estimate_moving(model, offsets, capacity, delta_range, shear_model, theta1, 
                     load1, load2, *, threads: int | None = None):  # fmt: skip
     """:func:`estimate` while the arm moves: ``(fx, fy, status, inertial)``.
 
-    ``shear_model`` (:class:`sailforce.dynamics.ShearModel`) gives the
+    ``shear_model`` (:class:`sailforce.motion.dynamics.ShearModel`) gives the
     cells' dynamic shears ``V`` from the joint rates [rad/s] and
     accelerations [rad/s^2]; the force is (``docs/dynamics.md``)::
 
@@ -76,7 +76,7 @@ def estimate_moving_blocks(model, offsets, capacity, delta_range, shear_model, t
     ``(omega1, omega2, alpha1, alpha2)`` of the flattened readings ``start:stop``.
 
     Each block's motion is computed in the thread that estimates the block,
-    while its readings are in the cache (:class:`sailforce.differentiate.RatePlan`).
+    while its readings are in the cache (:class:`sailforce.motion.differentiate.RatePlan`).
     """
     return _run_blocks(model, offsets, capacity, delta_range, (theta1, theta2, load1, load2), shear_model, threads,
                        motion)  # fmt: skip

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SailError
+from ..errors import SailError
 
 CRITERIA = ("adj-r2", "r2")
 DEFAULT_CRITERION = "adj-r2"  #: the rule the seed states

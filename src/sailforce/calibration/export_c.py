@@ -4,7 +4,7 @@
 ``static const sail_calibration NAME = {...};``: the same numbers as the
 calibration file, in the layout of ``struct sail_calibration``, so that
 ``sail_estimate`` on the microcontroller computes what
-:meth:`sailforce.calfile.Calibration.estimate` computes on the PC.  Every
+:meth:`sailforce.calibration.file.Calibration.estimate` computes on the PC.  Every
 literal goes through ``SAIL_REAL()`` with 17 significant digits, exact in a
 double build and rounded once in a float build.
 """
@@ -15,9 +15,9 @@ import re
 
 import numpy as np
 
-from .calfile import Calibration
+from .file import Calibration
 from .compensation import MatrixCompensator
-from .errors import SailError
+from ..errors import SailError
 from .filters import LowPass
 
 #: ``SAIL_MAX_TERMS`` in sail.h: coefficients per series (Chebyshev or power).
@@ -141,7 +141,7 @@ def lowpass_fields(lowpass: LowPass) -> list[tuple[str, str]]:
 
 def dynamics_fields(cal: Calibration, sample_rate_hz: float) -> list[tuple[str, str]]:
     """``(member, initializer)`` pairs of ``struct sail_dynamics``: the shear coefficients and the rate filter."""
-    from .differentiate import kernel_polynomials
+    from ..motion.differentiate import kernel_polynomials
 
     term = cal.dynamics
     dt = 1.0 / sample_rate_hz

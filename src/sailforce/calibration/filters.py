@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import SailError
+from ..errors import SailError
 
 
 class FilterError(SailError):

@@ -9,16 +9,16 @@ linear in the force; docs/errata.md (Physics) shows M depends on delta only, up
 to a rotation by theta2.  Two forms of M are fitted (``--model``):
 
 - ``seed``: the paper's amplitude and phase polynomials per load cell
-  (:class:`~sailforce.compensation.AmplitudePhaseCompensator`), fitted from
+  (:class:`~sailforce.calibration.compensation.AmplitudePhaseCompensator`), fitted from
   per-pose sinusoid rows; needs several force directions at each pose;
 - ``matrix``: C(delta) J^T as Chebyshev series
-  (:class:`~sailforce.compensation.MatrixCompensator`), fitted on all samples;
+  (:class:`~sailforce.calibration.compensation.MatrixCompensator`), fitted on all samples;
 - ``auto``: whichever cross-validates better.
 
 Offsets come from the matrix fit (jointly with the map), for both kinds.
 Cross-validation always scores the force-vector RMSE [N] on held-out deltas.
-The calibration file format lives in :mod:`sailforce.calfile`; the per-row
-estimator with statuses in :mod:`sailforce.estimator`.
+The calibration file format lives in :mod:`sailforce.calibration.file`; the per-row
+estimator with statuses in :mod:`sailforce.calibration.estimator`.
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_float_arrays
-from .arm import Arm
+from .._validate import as_float_arrays
+from ..arm import Arm
 from .compensation import (
     CV_FOLDS,
     CV_TIE_ATOL_N,

@@ -45,12 +45,12 @@ from typing import Literal, Protocol, overload
 
 import numpy as np
 
-from ._validate import as_float_arrays
-from .errors import SailError
-from .kernel import Entries, torque_entries
-from .kinematics import SINGULAR_SIN_DELTA, Links, jacobian
+from .._validate import as_float_arrays
+from ..errors import SailError
+from ..kernel import Entries, torque_entries
+from ..kinematics import SINGULAR_SIN_DELTA, Links, jacobian
 from .regressors import PolynomialFit
-from .statics import raise_singular_pose
+from ..statics import raise_singular_pose
 
 
 class CompensationError(SailError):
@@ -247,7 +247,7 @@ def estimate_force(
     """End-effector force (fx, fy) [N] from the two load-cell signals: solve M F = s.
 
     Angles in radians; loads in the model's signal unit (offset-free).  The
-    force kernel's estimate (:mod:`sailforce.estimator`) without offsets,
+    force kernel's estimate (:mod:`sailforce.calibration.estimator`) without offsets,
     capacity or range.  Poses with |sin(theta1 - theta2)| < ``min_sin_delta``
     are singular: raise :class:`SingularPoseError` (default, result
     ``(fx, fy)``), or with ``on_singular="mask"`` return ``(fx, fy, singular)``

@@ -38,8 +38,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._blocks import for_each_block
-from .errors import SailError
+from .._blocks import for_each_block
+from ..errors import SailError
 
 #: A time step longer than this many median steps is a gap: the recording stopped, or samples were lost.
 GAP_FACTOR = 3.0
@@ -124,7 +124,7 @@ class RatePlan:
 
     Each sample's values depend on its own window alone, so a block of rows
     needs only the samples half a window either side of it.  The offline
-    estimate (:func:`sailforce.inertial.estimate_moving`) computes each
+    estimate (:func:`sailforce.calibration.inertial.estimate_moving`) computes each
     block's rates in the thread that then estimates the block's forces,
     while they are still in the cache.  ``dt`` is ``None`` when no
     sampling period can be found (no two valid samples in a row): every

@@ -14,7 +14,7 @@ from typing import IO, Iterator
 
 import numpy as np
 
-from .errors import SailError
+from ..errors import SailError
 
 
 class TableError(SailError):

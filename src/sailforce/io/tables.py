@@ -43,7 +43,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from .io import TableError
+from .files import TableError
 
 READING_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2")
 REFERENCE_COLUMNS = ("fx_N", "fy_N")

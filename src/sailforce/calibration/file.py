@@ -11,10 +11,10 @@ File format (``schema_version`` 1), one JSON object:
   ``{"kind": "seed", "amplitude": [p1, p2], "phase_deg": [p1, p2]}``, each p a list of
   coefficients, highest power first, in delta [deg];
 - ``metrics``: fit and cross-validated RMSE [N], sample and delta counts;
-- ``dynamics`` (optional): the dynamic term of :mod:`sailforce.inertial`,
+- ``dynamics`` (optional): the dynamic term of :mod:`sailforce.calibration.inertial`,
   ``{"columns": [names], "values": [..], "combinations": [..], "differentiator":
   {"window_s": .., "order": ..}, "source": "free-motion" | "prior"}``: base
-  parameters [SI] in representative columns of :data:`sailforce.dynamics.PARAMETERS`
+  parameters [SI] in representative columns of :data:`sailforce.motion.dynamics.PARAMETERS`
   (``combinations`` spells out what each stands for, for people);
 - ``checksum``: SHA-256 of the canonical JSON (sorted keys, compact) of everything else.
 
@@ -33,15 +33,15 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .arm import Arm
+from .. import __version__
+from ..arm import Arm
 from .compensation import AmplitudePhaseCompensator, MatrixCompensator
-from .differentiate import Differentiator
-from .dynamics import PARAMETERS
+from ..motion.differentiate import Differentiator
+from ..motion.dynamics import PARAMETERS
 from .inertial import DynamicTerm
-from .errors import GeometryError, SailError
+from ..errors import GeometryError, SailError
 from .estimator import estimate
-from .io import atomic_writer
+from ..io.files import atomic_writer
 from .regressors import PolynomialFit
 
 SCHEMA_VERSION = 1
@@ -58,7 +58,7 @@ class Calibration:
     """A fitted calibration: raw readings and joint angles in, end-effector force out.
 
     >>> import numpy as np
-    >>> from sailforce.compensation import MatrixCompensator
+    >>> from sailforce.calibration.compensation import MatrixCompensator
     >>> arm = Arm()
     >>> c = np.zeros((1, 2, 2)); c[0] = np.diag([1 / 740, 1 / 528])   # loads = T_i / k_i
     >>> cal = Calibration(arm, MatrixCompensator(arm, c, (0.2, 2.2)), (0.0, 0.0), (10.0, 10.0), (0.2, 2.2))
@@ -88,9 +88,9 @@ class Calibration:
     def estimate(self, theta1, theta2, load1, load2, *, threads: int | None = None):
         """``(fx, fy, status)`` [N] for readings: angles [rad], raw loads; vectorized.
 
-        Status codes are :mod:`sailforce.estimator`'s; fx and fy are NaN for
+        Status codes are :mod:`sailforce.calibration.estimator`'s; fx and fy are NaN for
         invalid and singular readings.  Large inputs run on ``threads``
-        threads (default :data:`sailforce.estimator.THREADS`).
+        threads (default :data:`sailforce.calibration.estimator.THREADS`).
         """
         return estimate(self.model, self.offsets, self.capacity, self.delta_range, theta1, theta2, load1, load2,
                         threads=threads)  # fmt: skip
