@@ -249,3 +249,25 @@ def test_batched_simulation_equals_single_poses(shape):
         single = simulate(robot, float(theta1[idx]), float(theta2[idx]))
         np.testing.assert_allclose(response.torques[idx], single.torques, rtol=BATCH_RTOL)
         np.testing.assert_allclose(response.deflection[idx], single.deflection, rtol=BATCH_RTOL)
+
+
+def test_one_member_transformation():
+    """The stiffness basis, the end-force recovery and the reactions all derive from elements.rotation."""
+    from sailforce.fem.elements import rotation, rotation_patterns, to_global, to_local
+    from sailforce.fem.frame import member_basis
+
+    rng = np.random.default_rng(4)
+    theta = rng.uniform(-np.pi, np.pi, 7)
+    c, s = np.cos(theta), np.sin(theta)
+    t = rotation(c, s)  # (7, 6, 6)
+    tc, ts, t1 = rotation_patterns()
+    np.testing.assert_allclose(c[:, None, None] * tc + s[:, None, None] * ts + t1, t, atol=1e-15)
+    vectors = rng.normal(size=(7, 6, 3))
+    local = to_local(c[:, None, None], s[:, None, None], vectors)
+    np.testing.assert_allclose(local, t @ vectors, atol=1e-14)
+    np.testing.assert_allclose(to_global(c[:, None, None], s[:, None, None], local), vectors, atol=1e-14)
+    k = local_stiffness(200e9 * 1e-4, 200e9 * 1e-8, 0.3, shear_parameter(200e9 * 1e-8, 80e9 * 0.5e-4, 0.3))
+    basis = member_basis(k)  # (6 monomials, 6, 6)
+    monomials = np.stack([c * c, c * s, s * s, c, s, np.ones_like(c)], axis=-1)
+    np.testing.assert_allclose(np.einsum("nm,mab->nab", monomials, basis), np.swapaxes(t, -1, -2) @ k @ t,
+                               rtol=1e-12, atol=1e-9 * np.abs(k).max())  # fmt: skip

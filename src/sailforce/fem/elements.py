@@ -61,3 +61,26 @@ def rotation(cos, sin) -> np.ndarray:
         t[..., o + 1, o] = -sin
         t[..., o + 2, o + 2] = 1.0
     return t
+
+
+def rotation_patterns() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Tc, Ts, T1), each ``(6, 6)``, with ``rotation(c, s) = c Tc + s Ts + T1``.
+
+    :func:`rotation` is affine in (c, s), so its values at (1, 0), (0, 1)
+    and (0, 0) give the three patterns: the one transformation from which
+    the frame's stiffness basis and its force recovery are derived.
+    """
+    t1 = rotation(0.0, 0.0)
+    return rotation(1.0, 0.0) - t1, rotation(0.0, 1.0) - t1, t1
+
+
+def to_local(cos, sin, vectors: np.ndarray) -> np.ndarray:
+    """T v for member vectors ``(..., 6, L)`` in global axes; ``cos``, ``sin`` broadcast against ``(..., 1, 1)``."""
+    tc, ts, t1 = rotation_patterns()
+    return cos * (tc @ vectors) + sin * (ts @ vectors) + t1 @ vectors
+
+
+def to_global(cos, sin, vectors: np.ndarray) -> np.ndarray:
+    """T^T f for member vectors ``(..., 6, L)`` in local axes (the inverse of :func:`to_local`: T is orthogonal)."""
+    tc, ts, t1 = rotation_patterns()
+    return cos * (tc.T @ vectors) + sin * (ts.T @ vectors) + t1.T @ vectors

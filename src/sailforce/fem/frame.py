@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ShapeError
+from .elements import rotation_patterns, to_global, to_local
 
 #: Configurations per stacked solve: a chunk of 33-DOF systems is ~36 MB;
 #: larger chunks bring no speed, smaller ones lose to per-call overhead.
@@ -80,22 +81,13 @@ class FrameSolution:
     angles: np.ndarray
 
 
-def _patterns() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    tc, ts, t1 = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros((6, 6))
-    for o in (0, 3):
-        tc[o, o] = tc[o + 1, o + 1] = 1.0
-        ts[o, o + 1], ts[o + 1, o] = 1.0, -1.0
-        t1[o + 2, o + 2] = 1.0
-    return tc, ts, t1
-
-
 def member_basis(local_k: np.ndarray) -> np.ndarray:
     """The six matrices B_m with T^T k T = sum_m monomial_m B_m, monomials (c^2, cs, s^2, c, s, 1).
 
     ``local_k`` is ``(..., 6, 6)``; the result is ``(..., 6, 6, 6)`` with the
     monomial axis third from last.
     """
-    tc, ts, t1 = _patterns()
+    tc, ts, t1 = rotation_patterns()
 
     def sandwich(a, b):
         return a.T @ local_k @ b
@@ -184,15 +176,9 @@ def _solve_chunk(frame: Frame, angles: np.ndarray, loads: np.ndarray) -> tuple[n
 
 
 def end_forces(frame: Frame, angles: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Member end forces in local axes ``(N, E, 6, L)`` from global displacements ``(N, n_dofs, L)``."""
-    theta = angles[:, frame.element_axis][..., None]  # (N, E, 1)
-    c, s = np.cos(theta), np.sin(theta)
-    g = u[:, frame.element_dofs]  # (N, E, 6, L)
-    local = np.empty_like(g)
-    for o in (0, 3):  # u_local = R u_global, translations only
-        local[:, :, o] = c * g[:, :, o] + s * g[:, :, o + 1]
-        local[:, :, o + 1] = -s * g[:, :, o] + c * g[:, :, o + 1]
-        local[:, :, o + 2] = g[:, :, o + 2]
+    """Member end forces in local axes ``(N, E, 6, L)`` from global displacements ``(N, n_dofs, L)``: k T u."""
+    theta = angles[:, frame.element_axis][..., None, None]  # (N, E, 1, 1)
+    local = to_local(np.cos(theta), np.sin(theta), u[:, frame.element_dofs])  # (N, E, 6, L)
     return np.einsum("eab,nebl->neal", frame.local_k, local, optimize=True)
 
 
@@ -204,14 +190,8 @@ def reactions(frame: Frame, solution: FrameSolution, loads: np.ndarray) -> np.nd
     members carry there, rotated to global axes, less the applied load.
     """
     n, _, n_loads = solution.displacements.shape
-    theta = solution.angles[:, frame.element_axis]
-    c, s = np.cos(theta)[..., None], np.sin(theta)[..., None]
-    f = solution.end_forces
-    glob = np.empty_like(f)
-    for o in (0, 3):  # F_global = R^T F_local
-        glob[:, :, o] = c * f[:, :, o] - s * f[:, :, o + 1]
-        glob[:, :, o + 1] = s * f[:, :, o] + c * f[:, :, o + 1]
-        glob[:, :, o + 2] = f[:, :, o + 2]
+    theta = solution.angles[:, frame.element_axis][..., None, None]
+    glob = to_global(np.cos(theta), np.sin(theta), solution.end_forces)  # F_global = T^T F_local
     total = np.zeros((n, frame.n_dofs, n_loads))
     for e, dofs in enumerate(frame.element_dofs):
         total[:, dofs] += glob[:, e]

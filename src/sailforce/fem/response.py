@@ -26,6 +26,7 @@ import numpy as np
 
 from .._validate import as_float_arrays
 from ..robot import Robot
+from .elements import rotation
 from .frame import solve
 from .model import LOADCELL_MEMBERS, MEMBERS, ROOT_MEMBERS, ArmModel, build_model
 
@@ -84,10 +85,10 @@ def simulate_model(model: ArmModel, theta1, theta2) -> ArmResponse:
     # The motor at B_i holds the inner member of link i, whose i-end moment is
     # the support reaction there (node equilibrium); T_i is its negative.
     torques = -solution.end_forces[:, list(ROOT_MEMBERS), 2]
-    cos_link, sin_link = np.cos(angles)[..., None], np.sin(angles)[..., None]
+    t = rotation(np.cos(angles), np.sin(angles))[..., None, :, :]  # (N, 2, 1, 6, 6): each link's member transformation
     u = solution.displacements[:, [dof["C1b.u"], dof["C2b.u"]]]
     v = solution.displacements[:, [dof["C1b.v"], dof["C2b.v"]]]
-    deflection = -sin_link * u + cos_link * v
+    deflection = t[..., 1, 0] * u + t[..., 1, 1] * v  # the far face's local v: row v of T times (u, v)
 
     f = solution.end_forces[:, list(LOADCELL_MEMBERS)]  # (N, 2, 6, 2)
     cell_forces = np.stack([f[:, :, 3], f[:, :, 4], 0.5 * (f[:, :, 5] - f[:, :, 2])], axis=2)
