@@ -9,7 +9,7 @@ VECTORS := $(BUILD)/vectors
 #: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
 EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
 
-.PHONY: demo test c-test c-default cross cross-test arm-toolchain qemu-arm valgrind bench fuzz install clean
+.PHONY: demo test lint c-test c-default cross cross-test arm-toolchain qemu-arm valgrind bench fuzz install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -24,8 +24,13 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/sail reproduce -o $(DEMO_DIR)
 
-test: $(STAMP) c-test
+test: $(STAMP) lint c-test
 	$(PY) -m pytest
+
+# ruff on everything Python; mypy on the public API (pyproject.toml lists the modules)
+lint: $(STAMP)
+	$(VENV)/bin/ruff check src tests bench docs c
+	$(VENV)/bin/mypy
 
 # libsail: shared test vectors from Python, then CTest in float and in double.
 c-test: $(STAMP)

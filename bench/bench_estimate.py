@@ -15,9 +15,9 @@ import pyarrow.csv as pacsv
 from _timing import best_of
 
 from sailforce import kernel
-from sailforce.calibration.file import Calibration
-from sailforce.calibration.compensation import MatrixCompensator
 from sailforce.arm import Arm
+from sailforce.calibration.compensation import MatrixCompensator
+from sailforce.calibration.file import Calibration
 
 N_CALL = 1_000_000
 N_ROWS = int(os.environ.get("SAIL_BENCH_ROWS", 10_000_000))  #: issue 5: a 10-million-row CSV
@@ -83,17 +83,19 @@ def run() -> list[tuple[str, str]]:
         tmp = Path(tmp)
         cal.save(tmp / "cal.json")
         n = N_ROWS
-        t2 = rng.uniform(-60, 60, n).round(4)
-        table = pa.table({"time_s": np.arange(n) * 1e-3, "theta1_deg": (t2 + rng.uniform(20, 160, n)).round(4),
-                          "theta2_deg": t2, "load1": rng.integers(-10**6, 10**6, n), "load2": rng.integers(-10**6, 10**6, n)})  # fmt: skip
+        theta2_deg = rng.uniform(-60, 60, n).round(4)
+        table = pa.table({"time_s": np.arange(n) * 1e-3, "theta1_deg": (theta2_deg + rng.uniform(20, 160, n)).round(4),
+                          "theta2_deg": theta2_deg, "load1": rng.integers(-10**6, 10**6, n),
+                          "load2": rng.integers(-10**6, 10**6, n)})  # fmt: skip
         pacsv.write_csv(table, tmp / "in.csv")
-        del table, t2
+        del table, theta2_deg
         sail = str(Path(sys.executable).with_name("sail"))  # the console script: a Python file
         pa.default_memory_pool().release_unused()
-        ours, ours_mb = _child_peak_mb([sail, "estimate", "--calibration", str(tmp / "cal.json"), str(tmp / "in.csv"), "-o", str(tmp / "out.csv")])
-        script = ("import sys; sys.path.insert(0, %r); from bench_estimate import _pandas_baseline, _calibration; "
-                  "from pathlib import Path; _pandas_baseline(_calibration(), Path(%r), Path(%r))") % (
-                      str(Path(__file__).parent), str(tmp / "in.csv"), str(tmp / "pd.csv"))  # fmt: skip
+        ours, ours_mb = _child_peak_mb([sail, "estimate", "--calibration", str(tmp / "cal.json"), str(tmp / "in.csv"),
+                                        "-o", str(tmp / "out.csv")])  # fmt: skip
+        script = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+                  "from bench_estimate import _pandas_baseline, _calibration; from pathlib import Path; "
+                  f"_pandas_baseline(_calibration(), Path({str(tmp / 'in.csv')!r}), Path({str(tmp / 'pd.csv')!r}))")  # fmt: skip
         start = time.perf_counter()
         subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
         base = time.perf_counter() - start

@@ -15,17 +15,17 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from sailforce.calibration.file import Calibration  # noqa: E402
-from sailforce.calibration.fit import fit_calibration  # noqa: E402
-from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector  # noqa: E402
-from sailforce.calibration.estimator import OK  # noqa: E402
-from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term  # noqa: E402
-from sailforce.motion.reaching import reaching, record  # noqa: E402
-from sailforce.robot import Handle, Plane, Robot  # noqa: E402
-from sailforce.synthetic import calibration_session  # noqa: E402
+from sailforce.calibration.estimator import OK
+from sailforce.calibration.file import Calibration
+from sailforce.calibration.fit import fit_calibration
+from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term
+from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector
+from sailforce.motion.reaching import reaching, record
+from sailforce.robot import Handle, Plane, Robot
+from sailforce.synthetic import calibration_session
 
 
 def main(output: Path) -> None:

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from sailforce.calibration.file import Calibration, CalibrationFileError, checksum
-from sailforce.calibration.fit import equivalent_capacity, fit_calibration
 from sailforce.calibration.compensation import CompensationError, MatrixCompensator
 from sailforce.calibration.estimator import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
+from sailforce.calibration.file import Calibration, CalibrationFileError, checksum
+from sailforce.calibration.fit import equivalent_capacity, fit_calibration
 from sailforce.fem.model import build_model
 from sailforce.fem.response import simulate_model
 from sailforce.robot import Robot

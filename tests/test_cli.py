@@ -23,7 +23,8 @@ def test_version():
     assert result.exit_code == 0 and __version__ in result.output
 
 
-@pytest.mark.parametrize("command", [[], ["statics"], ["robot"], ["robot", "init"], ["robot", "show"], ["demo"], ["simulate"], ["stress"], ["reproduce"], ["fit-poly"]])
+@pytest.mark.parametrize("command", [[], ["statics"], ["robot"], ["robot", "init"], ["robot", "show"], ["demo"], ["simulate"],
+                                     ["stress"], ["reproduce"], ["fit-poly"]])
 def test_every_command_has_help(command):
     result = run(*command, "--help")
     assert result.exit_code == 0 and "Usage:" in result.output
@@ -58,7 +59,8 @@ def test_statics_with_robot_file(tmp_path):
     path = tmp_path / "r.toml"
     assert run("robot", "init", str(path)).exit_code == 0
     path.write_text(path.read_text().replace("l3 = 0.45", "l3 = 0.9"))
-    data = json.loads(run("statics", "--robot", str(path), "--theta1-deg=90", "--theta2-deg=0", "--force-N=1", "--phi-deg=180", "--json").output)
+    data = json.loads(run("statics", "--robot", str(path), "--theta1-deg=90", "--theta2-deg=0", "--force-N=1", "--phi-deg=180",
+                          "--json").output)
     assert data["t1_Nm"] == pytest.approx(0.9 * math.sin(math.pi - math.pi / 2))  # l3 F sin(phi - th1)
 
 

@@ -275,7 +275,6 @@ def test_parquet_struct_column(tmp_path):
 def test_csv_to_parquet_refuses_text_in_a_numeric_column(tmp_path):
     """The first chunk makes the column numeric; a word far below is refused, naming its line, and nothing is written."""
     import sailforce.io.tables as tables
-
     from sailforce.calibration.file import Calibration
     from sailforce.calibration.streaming import stream_estimate
 
@@ -294,7 +293,6 @@ def test_csv_to_parquet_refuses_text_in_a_numeric_column(tmp_path):
 @pytest.mark.parametrize("signum, code", [(2, 130), (15, 143)])
 def test_interrupt_removes_the_half_written_output(tmp_path, signum, code):
     """Ctrl-C (SIGINT) and SIGTERM in the middle of a large estimate leave no file behind, and exit 130 / 143."""
-    import signal
     import time
 
     (tmp_path / "cal.json").write_bytes(CAL)

@@ -21,11 +21,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import sailforce.io.tables as tables
-from sailforce.calibration.file import Calibration
 from sailforce.calibration.estimator import INVALID, STATUS_NAMES
-from sailforce.kinematics import sin_delta_from_trig
+from sailforce.calibration.file import Calibration
 from sailforce.calibration.streaming import estimate_lines, stream_estimate
 from sailforce.io.tables import READING_COLUMNS, read_chunks, read_line
+from sailforce.kinematics import sin_delta_from_trig
 
 ROOT = Path(__file__).resolve().parents[1]
 CAL_PATH = ROOT / "c" / "examples" / "calibration.json"

@@ -164,7 +164,7 @@ def solve_all_contacts(bodies, q, qd, qdd, gravity, force):
         # the net contact load each body needs: m (a_G - g) and, about its origin, I_G alpha + (G - O) x m (a_G - g)
         step = 1e-4  # central second difference: truncation ~1e-8 relative, rounding ~1e-9
 
-        def centre_at(t):
+        def centre_at(t, name=name, index=index, body=body):
             qq = q + qd * t + 0.5 * qdd * t * t
             return _centre(qq, name, index, body)
         a_g = (centre_at(step) - 2 * centre_at(0.0) + centre_at(-step)) / step**2
@@ -268,8 +268,8 @@ def test_gravity_coefficients_are_linear_in_gravity():
 
 def test_prior_from_the_robot_file(tmp_path):
     """Uniform bars: l3's mass, first moment and inertia in closed form, the handle on top; outer parts split at the cell."""
-    from sailforce.motion.dynamics import inertial_parameters
     from sailforce.io.robotfile import load_robot_file
+    from sailforce.motion.dynamics import inertial_parameters
 
     (tmp_path / "r.toml").write_text(
         "[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[handle]\nmass = 1.0\nposition = 1.0\n"

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sailforce import SINGULAR_SIN_DELTA, Arm, kernel
-from sailforce.calibration.file import Calibration
 from sailforce.calibration.compensation import MatrixCompensator, TorqueScale, estimate_force
+from sailforce.calibration.file import Calibration
 from sailforce.errors import SailError
 from sailforce.status import INVALID, SATURATED, SINGULAR
 

@@ -18,14 +18,14 @@ import pytest
 from click.testing import CliRunner
 
 from sailforce import SINGULAR_SIN_DELTA, Arm
-from sailforce.calibration.file import Calibration
-from sailforce.cli import cli
 from sailforce.calibration.compensation import AmplitudePhaseCompensator, MatrixCompensator
 from sailforce.calibration.estimator import DELTA_RANGE_SLACK, STATUS_NAMES
-from sailforce.motion.differentiate import GAP_FACTOR
 from sailforce.calibration.export_c import MAX_HALF_WINDOW, MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
+from sailforce.calibration.file import Calibration
 from sailforce.calibration.regressors import PolynomialFit
 from sailforce.calibration.streaming import estimate_lines
+from sailforce.cli import cli
+from sailforce.motion.differentiate import GAP_FACTOR
 
 ROOT = Path(__file__).resolve().parents[1]
 HEADER = (ROOT / "c" / "include" / "sail.h").read_text()
@@ -70,7 +70,7 @@ def _matrix_cal(terms: int) -> Calibration:
 
 def _seed_cal(amplitude_terms: int) -> Calibration:
     arm = Arm()
-    fit = lambda coefficients: PolynomialFit(len(coefficients) - 1, tuple(coefficients), 1.0, 1.0, "cv", 0.0, True)  # noqa: E731
+    fit = lambda coefficients: PolynomialFit(len(coefficients) - 1, tuple(coefficients), 1.0, 1.0, "cv", 0.0, True)
     model = AmplitudePhaseCompensator(arm, (fit([1e-6] * amplitude_terms), fit([2e-5])), (fit([0.1, 3.0]), fit([-2.0])), (0.3, 2.8))
     return Calibration(arm, model, (1.0, 2.0), (4e6, 4e6), (0.3, 2.8))
 

@@ -10,13 +10,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sailforce.calibration.estimator import MOTION_UNKNOWN, OK
 from sailforce.calibration.file import Calibration
 from sailforce.calibration.fit import fit_calibration
-from sailforce.motion.differentiate import Differentiator, MotionDataError, RateTracker, derivatives
-from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector
-from sailforce.calibration.estimator import MOTION_UNKNOWN, OK
 from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term
 from sailforce.kinematics import forward
+from sailforce.motion.differentiate import Differentiator, MotionDataError, RateTracker, derivatives
+from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector
 from sailforce.motion.reaching import MINJERK_PEAK_ACCELERATION, MINJERK_PEAK_SPEED, minimum_jerk, reaching, record
 from sailforce.robot import Handle, Plane, Robot
 from sailforce.synthetic import calibration_session

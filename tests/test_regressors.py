@@ -10,9 +10,9 @@ from click.testing import CliRunner
 from hypothesis import given
 from hypothesis import strategies as st
 
+from sailforce.calibration.regressors import RegressorError, adjusted_r_squared, fit_polynomial, select_order
 from sailforce.cli import cli
 from sailforce.io.files import TableError, read_numeric_csv
-from sailforce.calibration.regressors import RegressorError, adjusted_r_squared, fit_polynomial, select_order
 from sailforce.report.results import SEED_REGRESSORS, seed_table4
 from sailforce.study import TABLE4_COLUMNS
 

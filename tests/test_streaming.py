@@ -18,12 +18,12 @@ from hypothesis import strategies as st
 from scipy import signal
 
 from sailforce.calibration.file import Calibration
-from sailforce.cli import cli
 from sailforce.calibration.filters import FilterError, LowPass
 from sailforce.calibration.streaming import estimate_lines, stream_estimate
+from sailforce.cli import cli
 from sailforce.io.tables import READING_COLUMNS, read_chunks
 
-from .test_calibration import ROBOT, calibration_set
+from .test_calibration import calibration_set
 
 
 def run(*args, input=None):
@@ -37,7 +37,8 @@ def files(tmp_path_factory):
     with open(d / "cal.csv", "w") as f:
         f.write("sample_id,theta1_deg,theta2_deg,load1,load2,fx_N,fy_N\n")
         for i in range(t1.size):
-            f.write(f"{i},{np.degrees(t1[i]):.17g},{np.degrees(t2[i]):.17g},{counts[i, 0]:.0f},{counts[i, 1]:.0f},{fx[i]:.17g},{fy[i]:.17g}\n")
+            f.write(f"{i},{np.degrees(t1[i]):.17g},{np.degrees(t2[i]):.17g},{counts[i, 0]:.0f},{counts[i, 1]:.0f},"
+                    f"{fx[i]:.17g},{fy[i]:.17g}\n")
     result = run("calibrate", d / "cal.csv", "-o", d / "cal.json")
     assert result.exit_code == 0, result.output
     rows = [("0.00", "80", "10", f"{offsets[0] + 1000:.0f}", f"{offsets[1] - 500:.0f}"),
@@ -197,7 +198,7 @@ def test_live_serial_through_pty(files):
     os.write(master, b"theta1_deg,theta2_deg,load1,load2\n")
     worker = threading.Thread(target=lambda: estimate_lines(cal, lines(), lambda: out))
     worker.start()
-    for k in range(3):
+    for _ in range(3):
         os.write(master, f"80,10,{offsets[0]:.0f},{offsets[1]:.0f}\n".encode())
     worker.join(timeout=10)
     port.close()

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sailforce.cli import cli
 from sailforce.calibration.compensation import torque_rows
+from sailforce.cli import cli
 from sailforce.robot import Robot
 from sailforce.study import TABLE4_COLUMNS, Protocol, run_study
 

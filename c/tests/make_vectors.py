@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sailforce.calibration.file import Calibration
 from sailforce.calibration.estimator import DELTA_RANGE_SLACK
+from sailforce.calibration.file import Calibration
 from sailforce.calibration.filters import LowPass
 from sailforce.robot import Robot
 from sailforce.statics import SINGULAR_SIN_DELTA

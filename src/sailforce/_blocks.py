@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable
 
 
 def for_each_block(n: int, block: int, threads: int, run: Callable[[int], None]) -> None:

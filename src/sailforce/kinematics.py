@@ -30,10 +30,14 @@ REACH_RTOL = 1e-12
 class Links(Protocol):
     """Anything with the four link lengths [m]; :class:`sailforce.Arm` is one."""
 
-    l1: float
-    l2: float
-    l3: float
-    l4: float
+    @property
+    def l1(self) -> float: ...
+    @property
+    def l2(self) -> float: ...
+    @property
+    def l3(self) -> float: ...
+    @property
+    def l4(self) -> float: ...
 
 
 def _unit(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

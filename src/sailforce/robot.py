@@ -120,6 +120,6 @@ class Robot:
                     f"({cell.position * length:.4g} m) does not fit inside {name} = {length:g} m"
                 )
 
-    def with_joints(self, model: str) -> "Robot":
+    def with_joints(self, model: str) -> Robot:
         """A copy with another joint model, keeping the spring stiffness."""
         return replace(self, joints=replace(self.joints, model=model))

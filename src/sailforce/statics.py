@@ -98,8 +98,8 @@ def end_effector_force(
 
     def run(start: int) -> None:
         block = slice(start, start + BLOCK)
-        fx[block], fy[block], singular[block] = kernel.force_from_torques(
-            arm.l2, arm.l3, *(a[block] for a in flat), min_sin_delta)  # fmt: skip
+        th1, th2, tq1, tq2 = (a[block] for a in flat)
+        fx[block], fy[block], singular[block] = kernel.force_from_torques(arm.l2, arm.l3, th1, th2, tq1, tq2, min_sin_delta)
 
     for_each_block(theta1.size, BLOCK, THREADS, run)
     if on_singular == "raise" and singular.any():

@@ -39,9 +39,9 @@ from .calibration.compensation import (
     sinusoid_rows,
     torque_rows,
 )
+from .calibration.regressors import DEFAULT_CRITERION, DEFAULT_THRESHOLD, PolynomialFit, select_order
 from .fem.model import build_model
 from .fem.response import ArmResponse, simulate_model
-from .calibration.regressors import DEFAULT_CRITERION, DEFAULT_THRESHOLD, PolynomialFit, select_order
 from .robot import Robot
 
 TABLE4_COLUMNS = ("delta_deg", "amplitude_1", "phase_1_deg", "amplitude_2", "phase_2_deg")
@@ -122,7 +122,7 @@ class Rmse:
     def as_dict(self) -> dict[str, float]:
         return {"t1": self.t1, "t2": self.t2, "mean": self.mean}
 
-    def relative(self, amplitude: tuple[float, float]) -> "Rmse":
+    def relative(self, amplitude: tuple[float, float]) -> Rmse:
         return Rmse(self.t1 / amplitude[0], self.t2 / amplitude[1])
 
 

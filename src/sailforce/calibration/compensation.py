@@ -49,8 +49,8 @@ from .._validate import as_float_arrays
 from ..errors import SailError
 from ..kernel import Entries, torque_entries
 from ..kinematics import SINGULAR_SIN_DELTA, Links, jacobian
-from .regressors import PolynomialFit
 from ..statics import raise_singular_pose
+from .regressors import PolynomialFit
 
 
 class CompensationError(SailError):

@@ -66,8 +66,8 @@ def estimate_moving(model, offsets, capacity, delta_range, shear_model, theta1, 
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in
                                    (theta1, theta2, load1, load2, omega1, omega2, alpha1, alpha2)))  # fmt: skip
     motion = [a.reshape(-1) for a in arrays[4:]]
-    return estimate_moving_blocks(model, offsets, capacity, delta_range, shear_model, *arrays[:4],
-                                  lambda start, stop: [a[start:stop] for a in motion], threads=threads)  # fmt: skip
+    return estimate_moving_blocks(model, offsets, capacity, delta_range, shear_model, arrays[0], arrays[1], arrays[2],
+                                  arrays[3], lambda start, stop: [a[start:stop] for a in motion], threads=threads)  # fmt: skip
 
 
 def estimate_moving_blocks(model, offsets, capacity, delta_range, shear_model, theta1, theta2, load1, load2, motion,

@@ -15,9 +15,9 @@ import re
 
 import numpy as np
 
-from .file import Calibration
-from .compensation import MatrixCompensator
 from ..errors import SailError
+from .compensation import MatrixCompensator
+from .file import Calibration
 from .filters import LowPass
 
 #: ``SAIL_MAX_TERMS`` in sail.h: coefficients per series (Chebyshev or power).
@@ -44,7 +44,8 @@ C_KEYWORDS = frozenset("""
 #: what <stddef.h>, which it includes, defines.
 LIBSAIL_NAMES = frozenset("""
     SAIL_DELTA_RANGE_SLACK SAIL_DOUBLE SAIL_EXTRAPOLATED SAIL_GAP_FACTOR SAIL_H SAIL_INVALID
-    SAIL_COUNTS_PER_TURN SAIL_MAX_HALF_WINDOW SAIL_MAX_RATE_ORDER SAIL_MAX_SECTIONS SAIL_MAX_TERMS SAIL_MODEL_MATRIX SAIL_MODEL_SEED SAIL_MOTION_UNKNOWN
+    SAIL_COUNTS_PER_TURN SAIL_MAX_HALF_WINDOW SAIL_MAX_RATE_ORDER SAIL_MAX_SECTIONS SAIL_MAX_TERMS
+    SAIL_MODEL_MATRIX SAIL_MODEL_SEED SAIL_MOTION_UNKNOWN
     SAIL_OK SAIL_REAL SAIL_SATURATED SAIL_SINGULAR SAIL_SINGULAR_SIN_DELTA SAIL_VERSION_MAJOR SAIL_VERSION_MINOR
     sail_calibration sail_calibration_real_size sail_dynamics sail_estimate sail_estimate_block
     sail_estimate_moving sail_force sail_lowpass sail_lowpass_init sail_lowpass_process sail_lowpass_state

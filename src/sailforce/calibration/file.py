@@ -28,20 +28,22 @@ import datetime as _dt
 import hashlib
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
 from .. import __version__
 from ..arm import Arm
-from .compensation import AmplitudePhaseCompensator, MatrixCompensator
+from ..errors import GeometryError, SailError
+from ..io.files import atomic_writer
 from ..motion.differentiate import Differentiator
 from ..motion.dynamics import PARAMETERS
-from .inertial import DynamicTerm
-from ..errors import GeometryError, SailError
+from .compensation import AmplitudePhaseCompensator, MatrixCompensator
 from .estimator import estimate
-from ..io.files import atomic_writer
+from .inertial import DynamicTerm
 from .regressors import PolynomialFit
 
 SCHEMA_VERSION = 1
@@ -95,7 +97,7 @@ class Calibration:
         return estimate(self.model, self.offsets, self.capacity, self.delta_range, theta1, theta2, load1, load2,
                         threads=threads)  # fmt: skip
 
-    def with_offsets(self, offsets) -> "Calibration":
+    def with_offsets(self, offsets) -> Calibration:
         """A copy with new tare offsets (raw)."""
         return replace(self, offsets=(float(offsets[0]), float(offsets[1])))
 
@@ -105,7 +107,7 @@ class Calibration:
         content = {
             "schema_version": SCHEMA_VERSION,
             "software": self.software,
-            "created": self.created or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "created": self.created or _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
             "data_sha256": self.data_sha256,
             "units": {"angles": "rad", "force": "N", "load": self.load_unit},
             "robot": {"l1": self.arm.l1, "l2": self.arm.l2, "l3": self.arm.l3, "l4": self.arm.l4},
@@ -134,7 +136,7 @@ class Calibration:
             stream.write(text + "\n")
 
     @classmethod
-    def load(cls, path: str | Path) -> "Calibration":
+    def load(cls, path: str | Path) -> Calibration:
         """Read and validate a calibration file; :class:`CalibrationFileError` says what is wrong."""
         path = Path(path)
         try:
@@ -148,10 +150,10 @@ class Calibration:
         return cls.from_dict(data, str(path))
 
     @classmethod
-    def from_dict(cls, data: object, source: str = "calibration") -> "Calibration":
+    def from_dict(cls, data: object, source: str = "calibration") -> Calibration:
         """Validate ``data`` (the parsed JSON) and build the calibration."""
 
-        def fail(message: str):
+        def fail(message: str) -> NoReturn:
             raise CalibrationFileError(f"{source}: {message}")
 
         if not isinstance(data, dict):
@@ -216,7 +218,7 @@ def _number(mapping, key) -> float:
     return float(value)
 
 
-def _pair(data: dict, key: str, fail) -> tuple[float, float]:
+def _pair(data: dict, key: str, fail: Callable[[str], NoReturn]) -> tuple[float, float]:
     value = data[key]
     try:
         if not (isinstance(value, list) and len(value) == 2):
@@ -232,7 +234,7 @@ def _dynamics_dict(term: DynamicTerm, source: str) -> dict:
             "source": source}  # fmt: skip
 
 
-def _dynamics_from(data: object, fail) -> DynamicTerm:
+def _dynamics_from(data: object, fail: Callable[[str], NoReturn]) -> DynamicTerm:
     if not isinstance(data, dict):
         fail("dynamics must be an object")
     columns, values = data.get("columns"), data.get("values")
@@ -262,7 +264,7 @@ def _model_dict(model) -> dict:
             "delta_range": list(model.delta_range)}  # fmt: skip
 
 
-def _model_from(data: object, arm: Arm, delta_range, fail):
+def _model_from(data: object, arm: Arm, delta_range, fail: Callable[[str], NoReturn]):
     if not isinstance(data, dict) or data.get("kind") not in ("seed", "matrix"):
         fail("model.kind must be 'seed' or 'matrix'")
     model_range = _pair(data, "delta_range", fail) if "delta_range" in data else delta_range
@@ -286,4 +288,5 @@ def _model_from(data: object, arm: Arm, delta_range, fail):
                                             math.nan, math.nan, "cv", math.nan, True) for p in polys)  # fmt: skip
         except TypeError as exc:
             fail(f"model.{key}: {exc}")
-    return AmplitudePhaseCompensator(arm, fits["amplitude"], fits["phase_deg"], model_range)
+    (a1, a2), (p1, p2) = fits["amplitude"], fits["phase_deg"]
+    return AmplitudePhaseCompensator(arm, (a1, a2), (p1, p2), model_range)

@@ -35,7 +35,6 @@ from .compensation import (
     CV_TIE_RTOL,
     AmplitudePhaseCompensator,
     CompensationError,
-    MatrixCompensator,
     amplitude_phase,
     delta_groups,
     estimate_force,
@@ -156,8 +155,10 @@ def _fit_seed(arm: Arm, theta1, theta2, fx, fy, load1, load2) -> tuple[Amplitude
 
 def _seed_model(arm, delta_deg, amplitude, phase, order: int, delta_range) -> AmplitudePhaseCompensator:
     unwrapped = np.unwrap(phase, axis=0)
-    a = tuple(fit_polynomial(delta_deg, amplitude[:, i], order, threshold=0.5) for i in range(2))
-    p = tuple(fit_polynomial(delta_deg, np.degrees(unwrapped[:, i]), order, threshold=0.5) for i in range(2))
+    a = (fit_polynomial(delta_deg, amplitude[:, 0], order, threshold=0.5),
+         fit_polynomial(delta_deg, amplitude[:, 1], order, threshold=0.5))
+    p = (fit_polynomial(delta_deg, np.degrees(unwrapped[:, 0]), order, threshold=0.5),
+         fit_polynomial(delta_deg, np.degrees(unwrapped[:, 1]), order, threshold=0.5))
     return AmplitudePhaseCompensator(arm, a, p, delta_range)
 
 

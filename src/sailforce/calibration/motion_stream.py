@@ -20,11 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..io.files import TableError
+from ..io.tables import Chunk
 from ..motion.differentiate import RateTracker
 from ..motion.dynamics import ShearModel
 from .estimator import estimate_moving
-from ..io.files import TableError
-from ..io.tables import Chunk
 
 TIME_COLUMN = "t_s"
 RATE_COLUMNS = ("omega1_dps", "omega2_dps")

@@ -143,8 +143,9 @@ def select_order(
     if np.unique(x).size <= highest:
         raise RegressorError(f"only {np.unique(x).size} distinct x values for order {highest}")
     fit = None
-    for order in range(highest + 1):
-        fit = fit_polynomial(x, y, order, criterion, threshold)
+    fit = fit_polynomial(x, y, 0, criterion, threshold)
+    for order in range(1, highest + 1):
         if fit.passed:
             return fit
+        fit = fit_polynomial(x, y, order, criterion, threshold)
     return fit

@@ -17,9 +17,10 @@ else as text.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import IO, Callable, Iterable, Iterator
+from typing import IO
 
 import numpy as np
 import pyarrow as pa
@@ -27,13 +28,23 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from .file import Calibration
-from .estimator import INVALID, STATUS_NAMES
-from .filters import LowPass
 from ..io.files import atomic_writer
+from ..io.tables import (
+    READING_COLUMNS,
+    Chunk,
+    Header,
+    TableError,
+    chunk_jobs,
+    csv_chunks,
+    csv_header,
+    is_parquet,
+    parquet_schema,
+    read_header,
+)
+from .estimator import INVALID, STATUS_NAMES
+from .file import Calibration
+from .filters import LowPass
 from .motion_stream import MotionColumns, MotionRows, MotionStage, motion_columns
-from ..io.tables import (READING_COLUMNS, Chunk, Header, TableError, chunk_jobs, csv_chunks, csv_header, is_parquet,
-                     parquet_schema, read_header)
 
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
 #: With a dynamic term: the subtracted inertial and gravity load of each cell, in reading units, before status.

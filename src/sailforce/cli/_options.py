@@ -13,9 +13,9 @@ from pathlib import Path
 import click
 
 from ..arm import Arm
-from ..robot import JOINT_MODELS, Robot
 from ..io import robotfile
 from ..io.robotfile import load_robot_file
+from ..robot import JOINT_MODELS, Robot
 from ..sweep import parse_spec
 
 

@@ -10,8 +10,8 @@ import click
 from rich.console import Console
 
 from ..calibration.file import Calibration
-from ..io.files import atomic_writer, check_output, table_format
 from ..calibration.streaming import estimate_lines, stream_estimate, table_motion
+from ..io.files import atomic_writer, check_output, table_format
 from ..io.tables import READING_COLUMNS, TableError, csv_header, input_size, is_parquet, parquet_schema, read_line
 from . import cli
 from ._options import lowpass_options, make_lowpass
@@ -23,7 +23,8 @@ from ._progress import progress_bar
 @click.argument("source", metavar="IN.csv", required=False, type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=None,
               help="OUT.csv or OUT.parquet to write; '-' or absent with a live stream: stdout (live output is CSV).")
-@click.option("--serial", "serial_port", default=None, metavar="PORT", help="Read the live stream from a serial port (pyserial URL or device).")
+@click.option("--serial", "serial_port", default=None, metavar="PORT",
+              help="Read the live stream from a serial port (pyserial URL or device).")
 @click.option("--baud", type=click.IntRange(1), default=115200, show_default=True, help="Serial baud rate.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options

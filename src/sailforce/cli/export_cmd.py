@@ -8,8 +8,8 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ..calibration.file import Calibration
 from ..calibration.export_c import calibration_header
+from ..calibration.file import Calibration
 from ..io.files import atomic_writer, check_output
 from . import cli
 from ._options import lowpass_options, make_lowpass
@@ -47,5 +47,6 @@ def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowp
         return
     with atomic_writer(output) as stream:
         stream.write(text)
-    extra = [f"`{name}_lowpass`"] * (lowpass is not None) + [f"`{name}_dynamics`"] * (cal.dynamics is not None and sample_rate_hz is not None)
+    extra = [f"`{name}_lowpass`"] * (lowpass is not None)
+    extra += [f"`{name}_dynamics`"] * (cal.dynamics is not None and sample_rate_hz is not None)
     console.print(f"wrote {output}: {cal.kind} calibration `{name}`" + "".join(f" and {e}" for e in extra))

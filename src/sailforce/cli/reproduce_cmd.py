@@ -10,8 +10,8 @@ import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from ..fem.response import TRANSDUCTIONS
 from ..calibration.regressors import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD
+from ..fem.response import TRANSDUCTIONS
 from ..robot import JOINT_MODELS
 from ..study import StudyResult, run_study
 from . import cli

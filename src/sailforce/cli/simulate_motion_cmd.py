@@ -9,9 +9,9 @@ import numpy as np
 from rich.console import Console
 
 from .. import __version__
-from ..motion.dynamics import base_parameters, inertial_parameters, parameter_vector
 from ..io.files import check_output, numeric_table_writer, table_format, write_json
-from ..motion.reaching import record, reaching
+from ..motion.dynamics import base_parameters, inertial_parameters, parameter_vector
+from ..motion.reaching import reaching, record
 from ..synthetic import NoiseModel, calibration_session, session_offsets
 from . import cli
 from ._options import FINITE, PrimaryOption, load_robot, robot_option

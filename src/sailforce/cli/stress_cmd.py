@@ -8,8 +8,8 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..fem.response import member_stresses, simulate
 from ..fem.model import MEMBERS
+from ..fem.response import member_stresses, simulate
 from ..io.files import atomic_writer, check_output
 from ..sweep import check_not_singular
 from . import cli

@@ -64,8 +64,8 @@ def solve_with_pynite(model: ArmModel, theta1: float, theta2: float) -> PyNiteRe
     EA = model.frame.local_k[:, 0, 0] * model.lengths
     EI = model.frame.local_k[:, 2, 2] * model.lengths / 4.0  # 4 EI / L for Euler-Bernoulli
     for e, (name, i, j, _, _) in enumerate(MEMBERS):
-        I = EI[e] / E_ref
-        fe.add_section(f"s{e}", EA[e] / E_ref, I, I, 2.0 * I)
+        second_moment = EI[e] / E_ref
+        fe.add_section(f"s{e}", EA[e] / E_ref, second_moment, second_moment, 2.0 * second_moment)
         fe.add_member(name, i, j, "ref", f"s{e}")
     if robot.joints.model == "pin":
         flags: dict[str, dict[str, bool]] = {}

@@ -9,11 +9,9 @@ to a default is the kind of error that costs a lab a week.
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
-
-from dataclasses import replace
 
 from ..arm import Arm
 from ..errors import GeometryError, RobotFileError

@@ -32,10 +32,11 @@ from __future__ import annotations
 
 import csv
 import io
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
-from pathlib import Path
 from functools import partial
-from typing import BinaryIO, Callable, Iterable, Iterator
+from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 import pyarrow as pa

@@ -35,8 +35,8 @@ variable ``SAILFORCE_KERNEL`` (``numpy`` or ``compiled``) or
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Iterator
 
 import numpy as np
 
@@ -148,7 +148,7 @@ def force_from_torques(l2: float, l3: float, theta1, theta2, t1, t2, min_sin_del
     fy[singular] = np.nan
     near = np.flatnonzero(flag == NEAR)
     if near.size:  # verdicts at the threshold: numpy's
-        fx[near], fy[near], singular[near] = _force_numpy(l2, l3, *(a[near] for a in (theta1, theta2, t1, t2)), min_sin_delta)
+        fx[near], fy[near], singular[near] = _force_numpy(l2, l3, theta1[near], theta2[near], t1[near], t2[near], min_sin_delta)
     return fx, fy, singular
 
 

@@ -76,7 +76,7 @@ class BodyInertia:
     hy: float = 0.0  #: [kg m] first moment across it
     I: float = 0.0  #: [kg m^2] rotational inertia about the reference point  # noqa: E741
 
-    def __add__(self, other: "BodyInertia") -> "BodyInertia":
+    def __add__(self, other: BodyInertia) -> BodyInertia:
         return BodyInertia(*(a + b for a, b in zip(astuple(self), astuple(other))))
 
 
@@ -94,7 +94,7 @@ class InertialParameters:
         return np.array([v for f in fields(self) for v in astuple(getattr(self, f.name))], dtype=float)
 
     @classmethod
-    def from_vector(cls, values) -> "InertialParameters":
+    def from_vector(cls, values) -> InertialParameters:
         values = np.asarray(values, dtype=float).reshape(4, 4)
         return cls(*(BodyInertia(*map(float, row)) for row in values))
 
@@ -228,7 +228,7 @@ class ShearModel:
     coefficients: tuple[tuple[float, ...], tuple[float, ...]]  #: (2, 6) in :data:`SHEAR_TERMS` order [N per unit]
 
     @classmethod
-    def from_parameters(cls, arm: Links, pi) -> "ShearModel":
+    def from_parameters(cls, arm: Links, pi) -> ShearModel:
         p = np.asarray(pi, dtype=float)
         if p.shape != (len(PARAMETERS),):
             raise DynamicsError(f"a parameter vector has {len(PARAMETERS)} entries ({', '.join(PARAMETERS)}), not {p.shape}")

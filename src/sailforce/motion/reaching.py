@@ -22,10 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .dynamics import cell_shears, inertial_parameters
 from ..kinematics import forward, inverse, jacobian
 from ..robot import Robot
 from ..synthetic import HX711_COUNTS_PER_MV_V, NoiseModel
+from .dynamics import cell_shears, inertial_parameters
 
 #: Peak speed / (D / T) and peak acceleration / (D / T^2) of a minimum-jerk reach.
 MINJERK_PEAK_SPEED = 1.875

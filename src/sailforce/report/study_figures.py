@@ -7,10 +7,10 @@ import math
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from ..study import Curves, StudyResult  # noqa: E402
+from ..study import Curves, StudyResult
 
 SEED_STYLE = {"color": "0.35", "linestyle": "--", "marker": "s", "markersize": 3}  #: the seed's published values
 MODEL_COLOURS = {"uncompensated": "tab:red", "seed": "tab:blue", "matrix": "tab:green",
