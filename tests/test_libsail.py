@@ -149,3 +149,28 @@ def test_stream_example_matches_sail_estimate(stream_example):
             assert (c_field == "") == (py_field == "")
             if c_field:
                 assert float(c_field) == pytest.approx(float(py_field), rel=1e-8, abs=1e-9)
+
+
+def test_df2t_export_runs_cmsis_difference_equation_like_scipy():
+    """<name>_lowpass_df2T, run through CMSIS-DSP's documented df2T recursion, filters as scipy's sosfilt does."""
+    from scipy import signal
+
+    from sailforce.calibration.filters import LowPass
+
+    lowpass = LowPass(10.0, 200.0, 4)
+    header = calibration_header(_matrix_cal(1), "cal_m", lowpass=lowpass)
+    stages = int(re.search(r"#define CAL_M_LOWPASS_STAGES (\d+)", header).group(1))
+    body = re.search(r"cal_m_lowpass_df2T\[5 \* \d+\] = \{(.*)\};", header).group(1)
+    coefficients = np.array([float(v) for v in re.findall(r"SAIL_REAL\(([^)]*)\)", body)]).reshape(stages, 5)
+    assert stages == 2
+    x = np.random.default_rng(0).normal(size=400) + 3.0
+    y = x.copy()
+    for b0, b1, b2, a1, a2 in coefficients:  # arm_biquad_cascade_df2T_f32, stage by stage, zero state
+        d1 = d2 = 0.0
+        out = np.empty_like(y)
+        for n, xn in enumerate(y):
+            out[n] = b0 * xn + d1
+            d1 = b1 * xn + a1 * out[n] + d2
+            d2 = b2 * xn + a2 * out[n]
+        y = out
+    np.testing.assert_allclose(y, signal.sosfilt(np.asarray(lowpass.sos), x), rtol=1e-12, atol=1e-12)

@@ -15,20 +15,22 @@ static const sail_calibration sail_cal = {
     .capacity = {SAIL_REAL(4133501.9734349605), SAIL_REAL(4130905.500148412)},
     .delta_min = SAIL_REAL(0.26179938779914946),
     .delta_max = SAIL_REAL(2.8797932657906435),
-    .n_terms = 1,
-    .cheb_lo = SAIL_REAL(0.26179938779914946),
-    .cheb_hi = SAIL_REAL(2.8797932657906435),
-    .cheb = {
-        {{SAIL_REAL(42149.9897868789), SAIL_REAL(2698.997099223584)}, {SAIL_REAL(1794.1603107769909), SAIL_REAL(28082.342085206896)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-        {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
-    },
+    .model = {.matrix = {
+        .n_terms = 1,
+        .cheb_lo = SAIL_REAL(0.26179938779914946),
+        .cheb_hi = SAIL_REAL(2.8797932657906435),
+        .cheb = {
+            {{SAIL_REAL(42149.9897868789), SAIL_REAL(2698.997099223584)}, {SAIL_REAL(1794.1603107769909), SAIL_REAL(28082.342085206896)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+            {{SAIL_REAL(0.0), SAIL_REAL(0.0)}, {SAIL_REAL(0.0), SAIL_REAL(0.0)}},
+        },
+    }},
 };
 
 static const sail_lowpass sail_cal_lowpass = {
@@ -46,5 +48,11 @@ static const sail_lowpass sail_cal_lowpass = {
         {SAIL_REAL(0.0), SAIL_REAL(0.0)},
     },
 };
+
+/* The same low-pass for CMSIS-DSP: arm_biquad_cascade_df2T_init_f32(&inst, SAIL_CAL_LOWPASS_STAGES,
+ * sail_cal_lowpass_df2T, state) with float state[2 * stages] per cell; start it at steady state as
+ * state[2 s + j] = zi[s][j] x0 for the first reading x0 (zi from sail_cal_lowpass). */
+#define SAIL_CAL_LOWPASS_STAGES 1
+static const sail_real sail_cal_lowpass_df2T[5 * 1] = {SAIL_REAL(0.09763107293781749), SAIL_REAL(0.19526214587563498), SAIL_REAL(0.09763107293781749), SAIL_REAL(0.9428090415820632), SAIL_REAL(-0.3333333333333332)};
 
 #endif /* SAIL_CALIBRATION_SAIL_CAL_H */

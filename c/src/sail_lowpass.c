@@ -6,14 +6,19 @@
 #include "sail.h"
 #include "sail_math.h"
 
-void sail_lowpass_init(sail_lowpass_state *state, const sail_lowpass *design)
+int32_t sail_lowpass_init(sail_lowpass_state *state, const sail_lowpass *design)
 {
     int c, s;
+    if (state == NULL || design == NULL)
+        return SAIL_CHECK_NULL;
+    if (design->n_sections < 1 || design->n_sections > SAIL_MAX_SECTIONS)
+        return SAIL_CHECK_SECTIONS;
     state->design = design;
     state->started = 0;
     for (c = 0; c < 2; c++)
         for (s = 0; s < SAIL_MAX_SECTIONS; s++)
             state->state[c][s][0] = state->state[c][s][1] = 0;
+    return SAIL_CHECK_OK;
 }
 
 static sail_real cascade(const sail_lowpass *d, sail_real z[SAIL_MAX_SECTIONS][2], sail_real x)

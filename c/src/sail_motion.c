@@ -60,12 +60,12 @@ int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, 
 }
 
 /* C(n, k) for the small n and k here, exactly. */
-static unsigned long long binomial(int n, int k)
+static uint64_t binomial(int n, int k)
 {
-    unsigned long long c = 1;
+    uint64_t c = 1;
     int i;
     for (i = 1; i <= k; i++)
-        c = c * (unsigned long long)(n - k + i) / (unsigned long long)i;  /* C(n-k+i, i), an integer at each step */
+        c = c * (uint64_t)(n - k + i) / (uint64_t)i;  /* C(n-k+i, i), an integer at each step */
     return c;
 }
 
@@ -94,9 +94,14 @@ static void binomial_kernel(const double b[SAIL_MAX_RATE_ORDER + 1], int half, d
     }
 }
 
-void sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn)
+int32_t sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn)
 {
     int i, k;
+    if (state == NULL || dyn == NULL)
+        return SAIL_CHECK_NULL;
+    if (dyn->half < 1 || dyn->half > SAIL_MAX_HALF_WINDOW || dyn->order < 0 || dyn->order > SAIL_MAX_RATE_ORDER
+        || !(dyn->dt > 0))
+        return SAIL_CHECK_DYNAMICS;
     state->dyn = dyn;
     state->width = 2 * dyn->half + 1;
     state->slot = 0;
@@ -112,17 +117,18 @@ void sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn)
     }
     for (i = 0; i < 2 * SAIL_MAX_HALF_WINDOW + 1; i++)  /* the window starts full of zeros: its moments are 0 */
         state->counts[i][0] = state->counts[i][1] = 0;
+    return SAIL_CHECK_OK;
 }
 
 /* Slide the window by one sample: x_old (u = 0) leaves, the others move to u - 1, and x_new enters at u = 2 half.
  * By Pascal's rule C(u - 1, k) = C(u, k) - C(u - 1, k - 1):
  *   U_0' = U_0 - x_old + x_new,   U_k' = U_k - U_{k-1}' + C(2 half + 1, k) x_new   (k >= 1),
  * in unsigned (modulo 2^64) arithmetic: exact, since every U_k fits in 64 bits. */
-static inline void slide(unsigned long long u[SAIL_MAX_RATE_ORDER + 1], const unsigned long long entry[], long x_old,
+static inline void slide(uint64_t u[SAIL_MAX_RATE_ORDER + 1], const uint64_t entry[], long x_old,
                          long x_new)
 {
-    const unsigned long long n = (unsigned long long)(long long)x_new;
-    u[0] = u[0] - (unsigned long long)(long long)x_old + n;
+    const uint64_t n = (uint64_t)(long long)x_new;
+    u[0] = u[0] - (uint64_t)(long long)x_old + n;
     u[1] = u[1] - u[0] + entry[1] * n;
     u[2] = u[2] - u[1] + entry[2] * n;
     u[3] = u[3] - u[2] + entry[3] * n;
@@ -130,7 +136,7 @@ static inline void slide(unsigned long long u[SAIL_MAX_RATE_ORDER + 1], const un
 }
 
 /* The rate and the acceleration of one angle, sum_k beta[k] U_k with the moments read as signed 64-bit integers */
-static inline void rates(const sail_motion_state *state, const unsigned long long *u, sail_real *omega,
+static inline void rates(const sail_motion_state *state, const uint64_t *u, sail_real *omega,
                          sail_real *alpha)
 {
     const double u0 = (double)(long long)u[0], u1 = (double)(long long)u[1], u2 = (double)(long long)u[2],

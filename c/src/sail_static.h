@@ -15,7 +15,7 @@
 #define SAIL_RAD_PER_DEG SAIL_R(0.017453292519943295)
 
 /* C(delta) = sum_k c[k] T_k(x) by Clenshaw's recurrence, the four entries at once (as numpy's chebval). */
-static inline void chebyshev_matrix(const sail_calibration *cal, sail_real delta, sail_real c[2][2])
+static inline void chebyshev_matrix(const sail_matrix_model *cal, sail_real delta, sail_real c[2][2])
 {
     const int n = cal->n_terms;
     const sail_real x = (SAIL_R(2.0) * delta - (cal->cheb_lo + cal->cheb_hi)) / (cal->cheb_hi - cal->cheb_lo);
@@ -55,7 +55,7 @@ static SAIL_ALWAYS_INLINE int sensing_matrix(const sail_calibration *cal, sail_r
     int i;
     if (cal->kind == SAIL_MODEL_MATRIX) {
         sail_real c[2][2];
-        chebyshev_matrix(cal, delta, c);
+        chebyshev_matrix(&cal->model.matrix, delta, c);
         for (i = 0; i < 2; i++) {
             m[i][0] = c[i][0] * jt[0][0] + c[i][1] * jt[1][0];
             m[i][1] = c[i][0] * jt[0][1] + c[i][1] * jt[1][1];
@@ -65,8 +65,9 @@ static SAIL_ALWAYS_INLINE int sensing_matrix(const sail_calibration *cal, sail_r
     if (cal->kind == SAIL_MODEL_SEED) {
         const sail_real delta_deg = delta * SAIL_DEG_PER_RAD;
         for (i = 0; i < 2; i++) {  /* row i = R(-P_i) j_i / A_i */
-            const sail_real a = polyval(cal->amplitude[i], cal->amplitude_terms[i], delta_deg);
-            const sail_real p = polyval(cal->phase_deg[i], cal->phase_terms[i], delta_deg) * SAIL_RAD_PER_DEG;
+            const sail_seed_model *seed = &cal->model.seed;
+            const sail_real a = polyval(seed->amplitude[i], seed->amplitude_terms[i], delta_deg);
+            const sail_real p = polyval(seed->phase_deg[i], seed->phase_terms[i], delta_deg) * SAIL_RAD_PER_DEG;
             sail_real cp, sp;
             sail_sincos(p, &sp, &cp);
             m[i][0] = (cp * jt[i][0] + sp * jt[i][1]) / a;
@@ -77,7 +78,7 @@ static SAIL_ALWAYS_INLINE int sensing_matrix(const sail_calibration *cal, sail_r
     return -1;
 }
 
-static inline int finish(sail_force *out, sail_real fx, sail_real fy, int status)
+static inline int finish(sail_force *out, sail_real fx, sail_real fy, int32_t status)
 {
     out->fx = fx;
     out->fy = fy;

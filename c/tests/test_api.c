@@ -27,11 +27,11 @@ static sail_calibration pin_calibration(void)
     cal.capacity[0] = cal.capacity[1] = 4e6;
     cal.delta_min = (sail_real)(15 * PI / 180);
     cal.delta_max = (sail_real)(165 * PI / 180);
-    cal.n_terms = 1;
-    cal.cheb_lo = cal.delta_min;
-    cal.cheb_hi = cal.delta_max;
-    cal.cheb[0][0][0] = (sail_real)G1;
-    cal.cheb[0][1][1] = (sail_real)G2;
+    cal.model.matrix.n_terms = 1;
+    cal.model.matrix.cheb_lo = cal.delta_min;
+    cal.model.matrix.cheb_hi = cal.delta_max;
+    cal.model.matrix.cheb[0][0][0] = (sail_real)G1;
+    cal.model.matrix.cheb[0][1][1] = (sail_real)G2;
     return cal;
 }
 
@@ -115,7 +115,7 @@ static void test_degenerate_and_unknown_models(void)
     sail_calibration cal = pin_calibration();
     const sail_reading r = reading_for(&cal, PI / 2, 0, 3, 4);
     sail_force f;
-    cal.cheb[0][1][1] = 0;  /* one cell reads nothing: the map cannot be inverted */
+    cal.model.matrix.cheb[0][1][1] = 0;  /* one cell reads nothing: the map cannot be inverted */
     CHECK(sail_estimate(&cal, &r, &f) == SAIL_SINGULAR && isnan(f.fy), "degenerate map: status %d", f.status);
     cal = pin_calibration();
     cal.kind = 99;
@@ -130,11 +130,11 @@ static void test_seed_model_matches_matrix(void)
     const sail_reading r = reading_for(&matrix, 1.9, 0.3, -7, 12);
     sail_force a, b;
     seed.kind = SAIL_MODEL_SEED;
-    seed.amplitude_terms[0] = seed.amplitude_terms[1] = 2;
-    seed.phase_terms[0] = seed.phase_terms[1] = 1;
-    seed.amplitude[0][0] = 0; seed.amplitude[0][1] = (sail_real)(1 / G1);  /* 0 * delta_deg + 1 / g1 */
-    seed.amplitude[1][0] = 0; seed.amplitude[1][1] = (sail_real)(1 / G2);
-    seed.phase_deg[0][0] = seed.phase_deg[1][0] = 0;
+    seed.model.seed.amplitude_terms[0] = seed.model.seed.amplitude_terms[1] = 2;
+    seed.model.seed.phase_terms[0] = seed.model.seed.phase_terms[1] = 1;
+    seed.model.seed.amplitude[0][0] = 0; seed.model.seed.amplitude[0][1] = (sail_real)(1 / G1);  /* 0 * delta_deg + 1 / g1 */
+    seed.model.seed.amplitude[1][0] = 0; seed.model.seed.amplitude[1][1] = (sail_real)(1 / G2);
+    seed.model.seed.phase_deg[0][0] = seed.model.seed.phase_deg[1][0] = 0;
     sail_estimate(&matrix, &r, &a);
     CHECK(sail_estimate(&seed, &r, &b) == SAIL_OK, "status %d", b.status);
     CHECK_CLOSE(b.fx, a.fx, 14.0, 10 * SAIL_TEST_RTOL);
@@ -144,7 +144,7 @@ static void test_seed_model_matches_matrix(void)
         const double t1 = 1.9, t2 = 0.3, fx = -7, fy = 12;
         sail_reading q = reading_for(&matrix, t1, t2, fx, fy);
         q.load1 = (sail_real)(matrix.offset[0] + G1 * L3 * (cos(t1) * fx + sin(t1) * fy));
-        seed.phase_deg[0][0] = 90;
+        seed.model.seed.phase_deg[0][0] = 90;
         CHECK(sail_estimate(&seed, &q, &b) == SAIL_OK, "status %d", b.status);
         CHECK_CLOSE(b.fx, fx, 14.0, 10 * SAIL_TEST_RTOL);
         CHECK_CLOSE(b.fy, fy, 14.0, 10 * SAIL_TEST_RTOL);
@@ -237,8 +237,73 @@ static void test_sincos(void)
     printf("sail_sincos: max error %.3g on |x| <= 50\n", worst);
 }
 
+/* sail_calibration_check and the init functions name what is wrong; the per-sample functions trust them. */
+static void test_checks(void)
+{
+    const sail_calibration good = pin_calibration();
+    sail_calibration cal = good;
+    sail_lowpass design;
+    sail_lowpass_state lowpass;
+    sail_dynamics dyn;
+    sail_motion_state motion;
+    const sail_real nan = (sail_real)NAN;
+    CHECK(sail_calibration_check(&good) == SAIL_CHECK_OK, "good: %d", (int)sail_calibration_check(&good));
+    CHECK(sail_calibration_check(NULL) == SAIL_CHECK_NULL, "NULL");
+    cal.kind = 7;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_KIND, "kind 7: %d", (int)sail_calibration_check(&cal));
+    cal = good;
+    cal.model.matrix.n_terms = SAIL_MAX_TERMS + 1;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_TERMS, "n_terms %d", SAIL_MAX_TERMS + 1);
+    cal.model.matrix.n_terms = 0;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_TERMS, "n_terms 0");
+    cal = good;
+    cal.model.matrix.cheb_hi = cal.model.matrix.cheb_lo;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_RANGE, "cheb_lo == cheb_hi");
+    cal = good;
+    cal.delta_max = nan;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_RANGE, "delta_max NaN");
+    cal = good;
+    cal.l3 = 0;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_GEOMETRY, "l3 = 0");
+    cal = good;
+    cal.capacity[1] = -1;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_CAPACITY, "capacity < 0");
+    cal = good;
+    cal.kind = SAIL_MODEL_SEED;
+    cal.model.seed.amplitude_terms[0] = cal.model.seed.amplitude_terms[1] = 1;
+    cal.model.seed.phase_terms[0] = 1;
+    cal.model.seed.phase_terms[1] = SAIL_MAX_TERMS + 1;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_TERMS, "seed phase_terms");
+    cal.model.seed.phase_terms[1] = SAIL_MAX_TERMS;
+    CHECK(sail_calibration_check(&cal) == SAIL_CHECK_OK, "seed: %d", (int)sail_calibration_check(&cal));
+
+    memset(&design, 0, sizeof design);
+    CHECK(sail_lowpass_init(&lowpass, &design) == SAIL_CHECK_SECTIONS, "0 sections");
+    design.n_sections = SAIL_MAX_SECTIONS + 1;
+    CHECK(sail_lowpass_init(&lowpass, &design) == SAIL_CHECK_SECTIONS, "too many sections");
+    design.n_sections = 1;
+    CHECK(sail_lowpass_init(&lowpass, &design) == SAIL_CHECK_OK, "1 section");
+    CHECK(sail_lowpass_init(NULL, &design) == SAIL_CHECK_NULL, "NULL state");
+
+    memset(&dyn, 0, sizeof dyn);
+    dyn.half = 5;
+    dyn.order = 2;
+    dyn.dt = 1e-3;
+    CHECK(sail_motion_init(&motion, &dyn) == SAIL_CHECK_OK, "dynamics");
+    dyn.half = SAIL_MAX_HALF_WINDOW + 1;
+    CHECK(sail_motion_init(&motion, &dyn) == SAIL_CHECK_DYNAMICS, "half too long");
+    dyn.half = 5;
+    dyn.order = SAIL_MAX_RATE_ORDER + 1;
+    CHECK(sail_motion_init(&motion, &dyn) == SAIL_CHECK_DYNAMICS, "order too high");
+    dyn.order = 2;
+    dyn.dt = 0;
+    CHECK(sail_motion_init(&motion, &dyn) == SAIL_CHECK_DYNAMICS, "dt = 0");
+    CHECK(sail_motion_init(&motion, NULL) == SAIL_CHECK_NULL, "NULL dynamics");
+}
+
 int main(void)
 {
+    test_checks();
     test_sincos();
     test_square_pose();
     test_round_trip_over_workspace();

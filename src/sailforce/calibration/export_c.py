@@ -87,7 +87,8 @@ def _check_name(name: str, lowpass: bool = False, dynamics: bool = False) -> Non
         raise ExportError(f"--name {name!r} is a C keyword; choose another name, such as the default sail_cal")
     if name.startswith("__") or (name[0] == "_" and name[1:2].isupper()):
         raise ExportError(f"--name {name!r} is reserved for the C implementation (it starts with __ or _ and a capital)")
-    for declared in (name,) + ((f"{name}_lowpass",) if lowpass else ()) + ((f"{name}_dynamics",) if dynamics else ()):
+    extra = ((f"{name}_lowpass", f"{name}_lowpass_df2T") if lowpass else ()) + ((f"{name}_dynamics",) if dynamics else ())
+    for declared in (name, *extra):
         if declared in LIBSAIL_NAMES:
             raise ExportError(f"--name {name!r} would declare {declared}, which libsail's sail.h already declares; "
                               "choose another name, such as the default sail_cal")  # fmt: skip
@@ -111,19 +112,26 @@ def calibration_fields(cal: Calibration) -> list[tuple[str, str]]:
             raise ExportError(f"the matrix model has order {c.shape[0] - 1}; libsail holds order <= {MAX_TERMS - 1}")
         padded = np.zeros((MAX_TERMS, 2, 2))
         padded[: c.shape[0]] = c
-        return [("kind", "SAIL_MODEL_MATRIX"), *fields, ("n_terms", str(c.shape[0])),
-                ("cheb_lo", _real(model.delta_range[0])), ("cheb_hi", _real(model.delta_range[1])),
-                ("cheb", _array(padded, broken=True))]  # fmt: skip
+        return [("kind", "SAIL_MODEL_MATRIX"), *fields, ("model", _union_member("matrix", [
+            ("n_terms", str(c.shape[0])), ("cheb_lo", _real(model.delta_range[0])),
+            ("cheb_hi", _real(model.delta_range[1])), ("cheb", _array(padded, broken=True))]))]  # fmt: skip
     amplitude = [fit.coefficients for fit in model.amplitude]
     phase = [fit.coefficients for fit in model.phase_deg]
     longest = max(len(p) for p in amplitude + phase)
     if longest > MAX_TERMS:
         raise ExportError(f"the seed model has a polynomial of order {longest - 1}; libsail holds order <= {MAX_TERMS - 1}")
-    return [("kind", "SAIL_MODEL_SEED"), *fields,
-            ("amplitude_terms", "{" + ", ".join(str(len(p)) for p in amplitude) + "}"),
-            ("phase_terms", "{" + ", ".join(str(len(p)) for p in phase) + "}"),
-            ("amplitude", _array(_padded(amplitude, MAX_TERMS), broken=True)),
-            ("phase_deg", _array(_padded(phase, MAX_TERMS), broken=True))]  # fmt: skip
+    return [("kind", "SAIL_MODEL_SEED"), *fields, ("model", _union_member("seed", [
+        ("amplitude_terms", "{" + ", ".join(str(len(p)) for p in amplitude) + "}"),
+        ("phase_terms", "{" + ", ".join(str(len(p)) for p in phase) + "}"),
+        ("amplitude", _array(_padded(amplitude, MAX_TERMS), broken=True)),
+        ("phase_deg", _array(_padded(phase, MAX_TERMS), broken=True))]))]  # fmt: skip
+
+
+def _union_member(member: str, fields: list[tuple[str, str]]) -> str:
+    """``{.member = {.field = value, ...}}``: the tagged union's member, in braces rather than nested
+    designators (``.model.matrix.n_terms``), which C++ (an Arduino sketch) does not accept."""
+    body = "".join(f"        .{name} = {value.replace(chr(10), chr(10) + '    ')},\n" for name, value in fields)
+    return f"{{.{member} = {{\n{body}    }}}}"
 
 
 def lowpass_fields(lowpass: LowPass) -> list[tuple[str, str]]:
@@ -138,6 +146,17 @@ def lowpass_fields(lowpass: LowPass) -> list[tuple[str, str]]:
     return [("n_sections", str(sos.shape[0])),
             ("sos", _array(np.vstack([sos, np.zeros((pad, 6))]), broken=True)),
             ("zi", _array(np.vstack([zi, np.zeros((pad, 2))]), broken=True))]  # fmt: skip
+
+
+def df2t_coefficients(lowpass: LowPass) -> np.ndarray:
+    """``(5 n_sections,)``: the filter in CMSIS-DSP's ``arm_biquad_cascade_df2T`` layout, {b0, b1, b2, -a1, -a2} per stage.
+
+    CMSIS writes its difference equation with the feedback terms added
+    (y = b0 x + d1; d1 = b1 x + a1 y + d2; d2 = b2 x + a2 y), so its a1 and
+    a2 are scipy's with the sign changed (``arm_biquad_cascade_df2T_init_f32``).
+    """
+    sos = np.asarray(lowpass.sos, dtype=float)
+    return np.column_stack([sos[:, 0], sos[:, 1], sos[:, 2], -sos[:, 4], -sos[:, 5]]).ravel()
 
 
 def dynamics_fields(cal: Calibration, sample_rate_hz: float) -> list[tuple[str, str]]:
@@ -199,6 +218,12 @@ def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str 
     text += _initializer("sail_calibration", name, calibration_fields(cal))
     if lowpass is not None:
         text += "\n" + _initializer("sail_lowpass", f"{name}_lowpass", lowpass_fields(lowpass))
+        stages = int(np.asarray(lowpass.sos).shape[0])
+        text += (f"\n/* The same low-pass for CMSIS-DSP: arm_biquad_cascade_df2T_init_f32(&inst, {name.upper()}_LOWPASS_STAGES,\n"
+                 f" * {name}_lowpass_df2T, state) with float state[2 * stages] per cell; start it at steady state as\n"
+                 f" * state[2 s + j] = zi[s][j] x0 for the first reading x0 (zi from {name}_lowpass). */\n"
+                 f"#define {name.upper()}_LOWPASS_STAGES {stages}\n"
+                 f"static const sail_real {name}_lowpass_df2T[5 * {stages}] = {_array(df2t_coefficients(lowpass))};\n")
     if dynamics:
         text += "\n" + _initializer("sail_dynamics", f"{name}_dynamics", dynamics_fields(cal, sample_rate_hz))
     return text + f"\n#endif /* {guard} */\n"

@@ -107,6 +107,11 @@ void setup(void)
     attachInterrupt(digitalPinToInterrupt(ENC2_A), encoder2_edge, CHANGE);
     attachInterrupt(digitalPinToInterrupt(ENC2_B), encoder2_edge, CHANGE);
 
+    if (sail_calibration_check(&sail_cal) != SAIL_CHECK_OK || sail_lowpass_init(&lowpass, &sail_cal_lowpass) != SAIL_CHECK_OK) {
+        Serial.println("# sail_calibration.h is not a valid calibration for this libsail: regenerate it with sail export-c");
+        for (;;) {
+        }
+    }
     cal = sail_cal;
     sail_tare_init(&tare);
     for (i = 0; i < TARE_SAMPLES; i++) {
@@ -115,7 +120,6 @@ void setup(void)
     }
     if (sail_tare_finish(&tare, &cal, spread) != 0)
         Serial.println("# tare failed: no HX711 readings; using the calibration's offsets");
-    sail_lowpass_init(&lowpass, &sail_cal_lowpass);
     Serial.println("theta1_deg,theta2_deg,load1,load2,fx_N,fy_N,status");
 }
 
