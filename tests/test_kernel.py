@@ -150,3 +150,27 @@ def test_without_numba_the_numpy_path_serves(monkeypatch):
     with pytest.raises(SailError, match="needs numba"):
         with kernel.use_backend("compiled"):
             pass
+
+
+def test_sail_estimate_does_not_load_numba(tmp_path):
+    """`sail estimate` prefers numpy: numba's LLVM would cost ~116 MB of its 300 MB budget (bench_estimate)."""
+    import subprocess
+    import sys
+
+    from sailforce.calibration.fit import fit_calibration
+    from sailforce.robot import Robot
+    from sailforce.synthetic import calibration_session
+
+    robot = Robot()
+    t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=1, step_deg=15, directions=8)
+    model, offsets, _ = fit_calibration(robot.arm, t1, t2, fx, fy, counts[:, 0], counts[:, 1], kind="matrix")
+    Calibration(robot.arm, model, tuple(offsets), (4e6, 4e6), model.delta_range, ((-4e6, 4e6), (-4e6, 4e6))).save(
+        tmp_path / "cal.json")
+    (tmp_path / "in.csv").write_text("theta1_deg,theta2_deg,load1,load2\n90,10,1000,2000\n")
+    code = ("import sys; from sailforce.cli import main; sys.argv = ['sail', 'estimate', '--calibration', sys.argv[1], "
+            "sys.argv[2], '-o', sys.argv[3], '-q']\ntry:\n    main()\nexcept SystemExit:\n    pass\n"
+            "print('numba' in sys.modules)")
+    env = {k: v for k, v in __import__("os").environ.items() if k != kernel.BACKEND_ENV}
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "cal.json"), str(tmp_path / "in.csv"),
+                           str(tmp_path / "out.csv")], capture_output=True, text=True, env=env, check=True)  # fmt: skip
+    assert done.stdout.strip().endswith("False") and (tmp_path / "out.csv").read_text().count("\n") == 2

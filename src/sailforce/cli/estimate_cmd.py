@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
+from .. import kernel
 from ..calibration.file import Calibration
 from ..calibration.streaming import estimate_lines, stream_estimate, table_motion
 from ..io.files import atomic_writer, check_output, table_format
@@ -37,7 +38,8 @@ def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass
     reads a live stream from stdin; --serial reads one from a port; each
     estimate is then written and flushed as its line arrives, and Ctrl-C
     ends the recording, keeping what was written.  A summary of the
-    statuses goes to stderr.
+    statuses goes to stderr.  It runs the numpy force kernel (SAILFORCE_KERNEL=compiled
+    picks numba): numba's LLVM costs memory and nothing here is faster for it.
 
     \b
     In motion: when the calibration has a dynamic term (sail calibrate
@@ -51,6 +53,7 @@ def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass
     window is complete.  --sample-rate-Hz sets the sampling period; by
     default it is the median of the first 64 time steps.
     """
+    kernel.prefer_backend("numpy")
     console = Console(stderr=True)
     if serial_port is not None and source is not None:
         raise click.UsageError(f"give either IN.csv ({source}) or --serial {serial_port}, not both")

@@ -91,7 +91,7 @@ def use_backend(name: str) -> Iterator[None]:
     global _chosen
     if name not in BACKENDS:
         raise SailError(f"kernel back-end {name!r}: expected one of {', '.join(BACKENDS)}")
-    previous = backend()
+    previous = _chosen  # None: chosen again on first use, without importing numba to switch to numpy
     if name == "compiled":
         _load_compiled(required=True)
     _chosen = name
@@ -99,6 +99,19 @@ def use_backend(name: str) -> Iterator[None]:
         yield
     finally:
         _chosen = previous
+
+
+def prefer_backend(name: str) -> None:
+    """Use ``name`` for the rest of the process unless :data:`BACKEND_ENV` says otherwise.
+
+    ``sail estimate`` prefers numpy: its time is parsing and formatting,
+    and numba's LLVM would add about 116 MB to a 300 MB memory budget.
+    """
+    global _chosen
+    if name not in BACKENDS:
+        raise SailError(f"kernel back-end {name!r}: expected one of {', '.join(BACKENDS)}")
+    if not os.environ.get(BACKEND_ENV, "").strip():
+        _chosen = name if name == "numpy" or _load_compiled(required=False) else "numpy"
 
 
 def compiled():
