@@ -133,16 +133,6 @@ def _load_compiled(required: bool) -> bool:
     return True
 
 
-def sincos(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(sin theta, cos theta) of a 1-D float array, by the back-end in use."""
-    module = compiled()
-    if module is None:
-        return np.sin(theta), np.cos(theta)
-    s, c = np.empty(theta.shape), np.empty(theta.shape)
-    module.sincos_array(theta, s, c)
-    return s, c
-
-
 def force_from_torques(l2: float, l3: float, theta1, theta2, t1, t2, min_sin_delta: float):
     """F = (J^T)^-1 T [N] on one block of 1-D arrays: ``(fx, fy, singular)``, NaN where singular.
 
