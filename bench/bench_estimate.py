@@ -31,8 +31,8 @@ def _calibration() -> Calibration:
     rng = np.random.default_rng(0)
     c = rng.normal(scale=1e-5, size=(7, 2, 2))  # order 6, as the study's matrix compensator
     c[0] = np.diag([2.0, 2.4])
-    return Calibration(arm, MatrixCompensator(arm, c, (0.26, 2.88)), (100.0, -50.0), (4e6, 4e6), (0.26, 2.88),
-                       ((-4e6, 4e6), (-4e6, 4e6)))  # fmt: skip
+    return Calibration(arm=arm, model=MatrixCompensator(arm, c, (0.26, 2.88)), offsets=(100.0, -50.0),
+                       capacity=(4e6, 4e6), delta_range=(0.26, 2.88), load_range=((-4e6, 4e6), (-4e6, 4e6)))  # fmt: skip
 
 
 def _pandas_baseline(cal: Calibration, source: Path, destination: Path) -> None:

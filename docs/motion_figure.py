@@ -32,7 +32,7 @@ def main(output: Path) -> None:
     robot = Robot(handle=Handle(mass=1.0), plane=Plane(tilt_deg=3.0))
     t1, t2, fx, fy, counts, offsets = calibration_session(robot)
     model, fitted, report = fit_calibration(robot.arm, t1, t2, fx, fy, counts[:, 0], counts[:, 1], kind="matrix")
-    cal = Calibration(robot.arm, model, tuple(fitted), (1e9, 1e9), report.delta_range)
+    cal = Calibration(arm=robot.arm, model=model, offsets=tuple(fitted), capacity=(1e9, 1e9), delta_range=report.delta_range)
     free = record(robot, reaching(robot, reaches=16), offsets=offsets, seed=3)
     fit = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1])
     task = record(robot, reaching(robot, reaches=8), hand_stiffness=100.0, offsets=offsets, seed=7)

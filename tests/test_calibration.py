@@ -32,7 +32,8 @@ def fitted():
     t1, t2, fx, fy, counts, offsets = calibration_set()
     model, fitted_offsets, report = fit_calibration(ROBOT.arm, t1, t2, fx, fy, counts[:, 0], counts[:, 1])
     capacity = equivalent_capacity(model, ROBOT.arm, ROBOT.loadcell.capacity_N, report.delta_range)
-    cal = Calibration(ROBOT.arm, model, tuple(fitted_offsets), tuple(capacity), report.delta_range)
+    cal = Calibration(arm=ROBOT.arm, model=model, offsets=tuple(fitted_offsets), capacity=tuple(capacity),
+                      delta_range=report.delta_range)
     return cal, offsets, report
 
 
@@ -107,8 +108,9 @@ def _simple_calibration() -> Calibration:
     c = np.zeros((2, 2, 2))
     c[0] = np.diag([1 / 740, 1 / 528])
     c[1] = [[1e-5, 2e-6], [0.0, -1e-5]]
-    return Calibration(arm, MatrixCompensator(arm, c, (0.25, 2.1)), (10.0, -5.0), (1.0, 1.0), (0.25, 2.1),
-                       ((-1.0, 1.0), (-1.0, 1.0)), "counts", {"cv_rmse_N": 0.1}, "abc", "2026-01-01T00:00:00+00:00")  # fmt: skip
+    return Calibration(arm=arm, model=MatrixCompensator(arm, c, (0.25, 2.1)), offsets=(10.0, -5.0), capacity=(1.0, 1.0),
+                       delta_range=(0.25, 2.1), load_range=((-1.0, 1.0), (-1.0, 1.0)), load_unit="counts",
+                       metrics={"cv_rmse_N": 0.1}, data_sha256="abc", created="2026-01-01T00:00:00+00:00")  # fmt: skip
 
 
 def test_file_round_trip(tmp_path):
@@ -126,7 +128,8 @@ def test_file_round_trip(tmp_path):
 def test_seed_model_file_round_trip(tmp_path):
     t1, t2, fx, fy, counts, _ = calibration_set(seed=4)
     model, offsets, report = fit_calibration(ROBOT.arm, t1, t2, fx, fy, counts[:, 0], counts[:, 1], kind="seed")
-    cal = Calibration(ROBOT.arm, model, tuple(offsets), (5e6, 5e6), report.delta_range, ((-5e6, 5e6), (-5e6, 5e6)))
+    cal = Calibration(arm=ROBOT.arm, model=model, offsets=tuple(offsets), capacity=(5e6, 5e6),
+                      delta_range=report.delta_range, load_range=((-5e6, 5e6), (-5e6, 5e6)))
     cal.save(tmp_path / "s.json")
     loaded = Calibration.load(tmp_path / "s.json")
     assert loaded.kind == "seed"

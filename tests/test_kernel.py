@@ -79,8 +79,8 @@ def test_end_effector_force_compiled_equals_numpy():
 
 def _calibration(coefficients) -> Calibration:
     arm = Arm()
-    return Calibration(arm, MatrixCompensator(arm, coefficients, (0.3, 2.8)), (100.0, -50.0), (4e5, 4e5), (0.3, 2.8),
-                       ((-4e5, 4e5), (-4e5, 4e5)))  # fmt: skip
+    return Calibration(arm=arm, model=MatrixCompensator(arm, coefficients, (0.3, 2.8)), offsets=(100.0, -50.0),
+                       capacity=(4e5, 4e5), delta_range=(0.3, 2.8), load_range=((-4e5, 4e5), (-4e5, 4e5)))  # fmt: skip
 
 
 @pytest.mark.parametrize("order", [0, 1, 6])
@@ -164,8 +164,8 @@ def test_sail_estimate_does_not_load_numba(tmp_path):
     robot = Robot()
     t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=1, step_deg=15, directions=8)
     model, offsets, _ = fit_calibration(robot.arm, t1, t2, fx, fy, counts[:, 0], counts[:, 1], kind="matrix")
-    Calibration(robot.arm, model, tuple(offsets), (4e6, 4e6), model.delta_range, ((-4e6, 4e6), (-4e6, 4e6))).save(
-        tmp_path / "cal.json")
+    Calibration(arm=robot.arm, model=model, offsets=tuple(offsets), capacity=(4e6, 4e6), delta_range=model.delta_range,
+                load_range=((-4e6, 4e6), (-4e6, 4e6))).save(tmp_path / "cal.json")
     (tmp_path / "in.csv").write_text("theta1_deg,theta2_deg,load1,load2\n90,10,1000,2000\n")
     code = ("import sys; from sailforce.cli import main; sys.argv = ['sail', 'estimate', '--calibration', sys.argv[1], "
             "sys.argv[2], '-o', sys.argv[3], '-q']\ntry:\n    main()\nexcept SystemExit:\n    pass\n"

@@ -65,14 +65,15 @@ def _matrix_cal(terms: int) -> Calibration:
     arm = Arm()
     c = np.zeros((terms, 2, 2))
     c[0] = np.diag([74000.0, 52800.0])
-    return Calibration(arm, MatrixCompensator(arm, c, (0.3, 2.8)), (1.0, 2.0), (4e6, 4e6), (0.3, 2.8))
+    return Calibration(arm=arm, model=MatrixCompensator(arm, c, (0.3, 2.8)), offsets=(1.0, 2.0), capacity=(4e6, 4e6),
+                       delta_range=(0.3, 2.8))
 
 
 def _seed_cal(amplitude_terms: int) -> Calibration:
     arm = Arm()
     fit = lambda coefficients: PolynomialFit(len(coefficients) - 1, tuple(coefficients), 1.0, 1.0, "cv", 0.0, True)
     model = AmplitudePhaseCompensator(arm, (fit([1e-6] * amplitude_terms), fit([2e-5])), (fit([0.1, 3.0]), fit([-2.0])), (0.3, 2.8))
-    return Calibration(arm, model, (1.0, 2.0), (4e6, 4e6), (0.3, 2.8))
+    return Calibration(arm=arm, model=model, offsets=(1.0, 2.0), capacity=(4e6, 4e6), delta_range=(0.3, 2.8))
 
 
 def test_export_writes_every_member_of_each_kind():

@@ -160,3 +160,69 @@ def test_reproduce_rejects_bad_robot_file(tmp_path):
     robot.write_text("[links]\nl1 = -1\n")
     result = CliRunner().invoke(cli, ["reproduce", "-o", str(tmp_path / "o"), "--robot", str(robot)])
     assert result.exit_code == 1 and "Traceback" not in result.output
+
+
+def test_report_prose_follows_the_protocol():
+    """Change every grid of the protocol: the report's words and counts change with it (issue 16, item 4)."""
+    from sailforce.report.document import report_markdown
+
+    protocol = Protocol(
+        phi_deg=tuple(np.arange(0.0, 360.0, 30.0)), stress_phi_deg=(0.0, 90.0, 180.0, 270.0),
+        stress_pose_deg=(60.0, 0.0), valid1_theta1_deg=(25.0, 55.0, 85.0, 115.0, 130.0),
+        valid2_theta2_deg=(-10.0, 20.0, 50.0, 80.0), workspace_delta_deg=tuple(np.arange(20.0, 160.1, 5.0)),
+        wide_calibration_delta_deg=tuple(np.arange(20.0, 160.1, 20.0)),
+    )  # fmt: skip
+    result = run_study(Robot().with_joints("bonded"), protocol=protocol)
+    markdown = report_markdown(result, None, 1.0)
+    runs = (16 * 12, (5 + 4) * 12)
+    assert protocol.runs() == runs
+    for needle in (f"{runs[0]} + {runs[1]} analyses", "all 12 force angles", "the 12 force angles",
+                   "φ = 0…270° in 90° steps", "θ1 = 60°, θ2 = 0°", "θ2 = 0°, θ1 = 25…130°", "θ1 = 120°, θ2 = -10…80°",
+                   "Δ = 20…160°", "Δ = 20…160° in 20° steps", "at Δ = 130°"):  # fmt: skip
+        assert needle in markdown, needle
+    for stale in ("24 force angles", "127.5", "22.5", "15…165", "384"):
+        assert stale not in markdown, stale
+
+
+def test_models_have_ids_and_labels_apart(bonded):
+    from sailforce.report.labels import MODEL_COLOURS, model_label
+    from sailforce.study import ModelId
+
+    assert set(bonded.force_rmse) == {ModelId.UNCOMPENSATED, ModelId.SEED, ModelId.MATRIX}
+    assert set(bonded.workspace.relative_error) == set(ModelId) == set(MODEL_COLOURS)
+    for model in ModelId:
+        assert " " not in model.value and model_label(model, bonded.protocol) != model.value
+    assert "15…165°" in model_label(ModelId.MATRIX_WIDE, bonded.protocol)
+
+
+def test_study_result_and_calibration_are_built_by_keyword(bonded):
+    from dataclasses import astuple
+
+    from sailforce.calibration.file import Calibration
+    from sailforce.study import StudyResult
+
+    with pytest.raises(TypeError):
+        StudyResult(*astuple(bonded)[:21])
+    with pytest.raises(TypeError):
+        Calibration(bonded.robot.arm, bonded.matrix_compensator, (0.0, 0.0), (1.0, 1.0), (0.3, 2.0))
+
+
+def test_report_leaves_the_matplotlib_backend_alone():
+    """A library must not switch pyplot's global backend: the figures are plain ``Figure`` objects."""
+    import subprocess
+    import sys
+
+    code = ("import matplotlib, sys; matplotlib.use('svg'); import sailforce.report.study_figures, "
+            "sailforce.report.stress_figure, sailforce.report.document, sailforce.cli.reproduce_cmd; "
+            "print(matplotlib.get_backend(), 'matplotlib.pyplot' in sys.modules)")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["svg", "False"]
+
+
+def test_errata_numbers_are_computed():
+    """The report's errata recompute the seed's A2 R² from its Table 4 (docs/errata.md: 0.99919 and 0.99810)."""
+    from sailforce.report.document import errata
+
+    text = " ".join(errata(Protocol()))
+    assert "(0.99919)" in text and "(0.99810)" in text and "sin 2°" in text and "740 and 528" in text
+    assert "θ1 = 75°" in text and "79 GPa" in text and "82 GPa" in text

@@ -37,9 +37,12 @@ class Material:
         return shear_modulus(self.E, self.nu)
 
 
+#: Seed Table 2's printed shear modulus [Pa] of the carbon steel, which E / 2(1 + nu) contradicts.
+SEED_TABLE2_SHEAR_MODULUS = 7.9e10
+
 #: Seed Table 2: plain carbon steel, for the links.  (The table's shear
-#: modulus, 7.9e10 Pa, is close to E / 2(1 + nu) = 8.2e10 Pa; we derive G from
-#: E and nu so the material stays self-consistent.)
+#: modulus, :data:`SEED_TABLE2_SHEAR_MODULUS`, is close to E / 2(1 + nu) = 8.2e10 Pa;
+#: we derive G from E and nu so the material stays self-consistent.)
 CARBON_STEEL = Material("plain carbon steel (seed Table 2)", E=2.1e11, nu=0.28, rho=7800.0, yield_strength=220_594_000.0)
 
 #: Seed Table 3: 7075-T6 aluminium, for the load cells.

@@ -25,6 +25,7 @@ and in the Table 4 columns, which are the seed's.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 
 import numpy as np
 
@@ -45,6 +46,18 @@ from .fem.response import ArmResponse, simulate_model
 from .robot import Robot
 
 TABLE4_COLUMNS = ("delta_deg", "amplitude_1", "phase_1_deg", "amplitude_2", "phase_2_deg")
+
+
+class ModelId(StrEnum):
+    """Short ids of the study's sensing models: keys of ``force_rmse`` and of the workspace errors.
+
+    Display labels live with the report (:data:`sailforce.report.labels.MODEL_LABELS`).
+    """
+
+    UNCOMPENSATED = "uncompensated"  #: one least-squares gain per cell, T_i = k_i s_i
+    SEED = "seed"  #: the seed's gain and phase per cell, A_i(delta), P_i(delta)
+    MATRIX = "matrix"  #: the 2x2 sensing map C(delta), fitted on both sweeps
+    MATRIX_WIDE = "matrix-wide"  #: the same, fitted on a sweep spanning the workspace
 
 
 def _steps(start: float, stop: float, step: float) -> tuple[float, ...]:
@@ -71,17 +84,46 @@ class Protocol:
     #: a calibration sweep spanning the workspace, for the "calibrate what you use" comparison
     wide_calibration_delta_deg: tuple[float, ...] = _steps(15.0, 165.0, 15.0)
 
+    def grid_deg(self, cell: int, *, validation: bool = False) -> tuple:
+        """(theta1, theta2) [deg] of sweep ``cell`` (1 or 2), or of its validation grid: one swept, one fixed."""
+        if cell not in (1, 2):
+            raise ValueError(f"cell must be 1 or 2, not {cell!r}")
+        if validation:
+            return ((self.valid1_theta1_deg, self.valid1_theta2_deg) if cell == 1
+                    else (self.valid2_theta1_deg, self.valid2_theta2_deg))  # fmt: skip
+        return ((self.sweep1_theta1_deg, self.sweep1_theta2_deg) if cell == 1
+                else (self.sweep2_theta1_deg, self.sweep2_theta2_deg))  # fmt: skip
+
     def sweep_poses(self, cell: int) -> tuple[np.ndarray, np.ndarray]:
         """(theta1, theta2) [rad] of sweep ``cell`` (1 or 2)."""
-        if cell == 1:
-            return _poses(self.sweep1_theta1_deg, self.sweep1_theta2_deg)
-        return _poses(self.sweep2_theta1_deg, self.sweep2_theta2_deg)
+        return _poses(*self.grid_deg(cell))
 
     def validation_poses(self, cell: int) -> tuple[np.ndarray, np.ndarray]:
         """(theta1, theta2) [rad] of the validation grid for load cell ``cell``."""
-        if cell == 1:
-            return _poses(self.valid1_theta1_deg, self.valid1_theta2_deg)
-        return _poses(self.valid2_theta1_deg, self.valid2_theta2_deg)
+        return _poses(*self.grid_deg(cell, validation=True))
+
+    def runs(self) -> tuple[int, int]:
+        """FE runs of both sweeps together and of both validation grids together (the seed's: 384 + 384)."""
+        per_pose = len(self.phi_deg)
+        sweeps = sum(self.sweep_poses(cell)[0].size for cell in (1, 2))
+        validation = sum(self.validation_poses(cell)[0].size for cell in (1, 2))
+        return sweeps * per_pose, validation * per_pose
+
+    def describe_grid(self, cell: int, *, validation: bool = False) -> str:
+        """A grid in words, e.g. ``"θ2 = 0°, θ1 = 22.5…127.5°"``: the fixed angle, then the swept one's span."""
+        theta1, theta2 = self.grid_deg(cell, validation=validation)
+        if isinstance(theta1, tuple):
+            return f"θ2 = {theta2:g}°, θ1 = {span_deg(theta1)}"
+        return f"θ1 = {theta1:g}°, θ2 = {span_deg(theta2)}"
+
+
+def span_deg(values_deg, *, step: bool = False) -> str:
+    """``"22.5…127.5°"``: the first and last of a grid in degrees (or its one value); ``step`` adds its step."""
+    values = np.atleast_1d(np.asarray(values_deg, dtype=float))
+    if values.size == 1:
+        return f"{values[0]:g}°"
+    text = f"{values[0]:g}…{values[-1]:g}°"
+    return f"{text} in {values[1] - values[0]:g}° steps" if step else text
 
 
 def _poses(theta1_deg, theta2_deg) -> tuple[np.ndarray, np.ndarray]:
@@ -131,10 +173,10 @@ class WorkspaceErrors:
     """RMS force-vector error over phi, relative to |F|, at each delta of the workspace grid."""
 
     delta: np.ndarray  #: [rad]
-    relative_error: dict[str, np.ndarray]  #: model name -> (n_delta,)
+    relative_error: dict[ModelId, np.ndarray]  #: model -> (n_delta,)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class StudyResult:
     """Everything :func:`run_study` computes; :mod:`sailforce.report` draws and writes it."""
 
@@ -156,7 +198,7 @@ class StudyResult:
     rmse_after_estimator: Rmse  #: T = J^T F-hat, F-hat from both cells through the 2x2 solve
     matrix_compensator: MatrixCompensator
     rmse_matrix: Rmse
-    force_rmse: dict[str, float]  #: force-vector RMSE [N] on both validation grids, per model
+    force_rmse: dict[ModelId, float]  #: force-vector RMSE [N] on both validation grids, per model
     workspace: WorkspaceErrors
     #: largest difference between the sweeps' amplitude (relative) and phase [deg] of the
     #: same cell at the same delta: zero in a linear model (docs/errata.md, Physics)
@@ -218,23 +260,27 @@ def run_study(
 
     samples = _samples(sweeps, phi, force)
     matrix = fit_matrix_compensator(arm, *samples)
-    models: dict[str, SensingModel] = {"uncompensated": TorqueScale(arm, prescale), "seed": compensator, "matrix": matrix}
+    models: dict[ModelId, SensingModel] = {
+        ModelId.UNCOMPENSATED: TorqueScale(arm, prescale), ModelId.SEED: compensator, ModelId.MATRIX: matrix}
     rmse_after_estimator = _estimator_rmse(compensator, validation, arm)
     rmse_matrix = _estimator_rmse(matrix, validation, arm)
     force_rmse = {name: _force_rmse(m, validation, phi, force) for name, m in models.items()}
 
     wide = curves(*_poses(protocol.wide_calibration_delta_deg, 0.0))
-    models["matrix, calibrated 15-165 deg"] = fit_matrix_compensator(arm, *_samples((wide,), phi, force))
+    models[ModelId.MATRIX_WIDE] = fit_matrix_compensator(arm, *_samples((wide,), phi, force))
     workspace_delta = np.radians(protocol.workspace_delta_deg)
     grid = curves(workspace_delta, np.zeros_like(workspace_delta))
     workspace = WorkspaceErrors(
         workspace_delta, {name: _relative_force_error(m, grid, phi, force) for name, m in models.items()}
     )
     return StudyResult(
-        robot, transduction, protocol, criterion, threshold, stress_response, sweeps, prescale, table4,
-        regressors, compensator, validation, compensated, rmse_before, rmse_after, rmse_after_estimator,
-        matrix, rmse_matrix, force_rmse, workspace, _delta_only_discrepancy(sweeps, phi, force, arm),
-    )  # fmt: skip
+        robot=robot, transduction=transduction, protocol=protocol, criterion=criterion, threshold=threshold,
+        stress_response=stress_response, sweeps=sweeps, prescale=prescale, table4=table4, regressors=regressors,
+        compensator=compensator, validation=validation, compensated=compensated, rmse_before=rmse_before,
+        rmse_after=rmse_after, rmse_after_estimator=rmse_after_estimator, matrix_compensator=matrix,
+        rmse_matrix=rmse_matrix, force_rmse=force_rmse, workspace=workspace,
+        delta_only_discrepancy=_delta_only_discrepancy(sweeps, phi, force, arm),
+    )
 
 
 def _least_squares_scale(signal: np.ndarray, torque: np.ndarray) -> float:

@@ -55,7 +55,7 @@ class CalibrationFileError(SailError):
     """A calibration file that is missing, corrupt, tampered with or out of range."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Calibration:
     """A fitted calibration: raw readings and joint angles in, end-effector force out.
 
@@ -63,7 +63,8 @@ class Calibration:
     >>> from sailforce.calibration.compensation import MatrixCompensator
     >>> arm = Arm()
     >>> c = np.zeros((1, 2, 2)); c[0] = np.diag([1 / 740, 1 / 528])   # loads = T_i / k_i
-    >>> cal = Calibration(arm, MatrixCompensator(arm, c, (0.2, 2.2)), (0.0, 0.0), (10.0, 10.0), (0.2, 2.2))
+    >>> cal = Calibration(arm=arm, model=MatrixCompensator(arm, c, (0.2, 2.2)), offsets=(0.0, 0.0),
+    ...                   capacity=(10.0, 10.0), delta_range=(0.2, 2.2))
     >>> fx, fy, status = cal.estimate(np.pi / 2, 0.0, 0.0, 3.0 / 528)
     >>> round(float(fx), 9), round(float(fy), 9), int(status)
     (0.0, 10.0, 0)
@@ -187,11 +188,12 @@ class Calibration:
         model = _model_from(data["model"], arm, delta_range, fail)
         units = data["units"]
         dynamics = _dynamics_from(data["dynamics"], fail) if "dynamics" in data else None
-        return cls(arm, model, offsets, capacity, delta_range, load_range,
-                   str(units.get("load", "raw")) if isinstance(units, dict) else "raw",
-                   data["metrics"] if isinstance(data["metrics"], dict) else {},
-                   str(data["data_sha256"]), str(data["created"]), str(data["software"]), dynamics,
-                   str(data["dynamics"].get("source", "")) if dynamics else "")  # fmt: skip
+        return cls(arm=arm, model=model, offsets=offsets, capacity=capacity, delta_range=delta_range,
+                   load_range=load_range, load_unit=str(units.get("load", "raw")) if isinstance(units, dict) else "raw",
+                   metrics=data["metrics"] if isinstance(data["metrics"], dict) else {},
+                   data_sha256=str(data["data_sha256"]), created=str(data["created"]), software=str(data["software"]),
+                   dynamics=dynamics,
+                   dynamics_source=str(data["dynamics"].get("source", "")) if dynamics else "")  # fmt: skip
 
 
 def _finite(text: str) -> float:

@@ -112,11 +112,13 @@ def calibrate_command(data, robot_path, output, kind, capacity, load_unit, free_
         capacity = tuple(equivalent_capacity(model, robot.arm, robot.loadcell.capacity_N, report.delta_range))
     loads = [values["load1"], values["load2"]]
     cal = Calibration(
-        robot.arm, model, tuple(map(float, offsets)), tuple(map(float, capacity)), report.delta_range,
-        tuple((float(v.min()), float(v.max())) for v in loads), load_unit,
-        {"fit_rmse_N": report.fit_rmse_N, "cv_rmse_N": report.cv_rmse_N, "cv_rmse_by_model_N": report.cv_rmse_by_kind,
-         "n_samples": report.n_samples, "n_deltas": report.n_deltas, "model_selection": kind},
-        _sha256(data),
+        arm=robot.arm, model=model, offsets=tuple(map(float, offsets)), capacity=tuple(map(float, capacity)),
+        delta_range=report.delta_range, load_range=tuple((float(v.min()), float(v.max())) for v in loads),
+        load_unit=load_unit,
+        metrics={"fit_rmse_N": report.fit_rmse_N, "cv_rmse_N": report.cv_rmse_N,
+                 "cv_rmse_by_model_N": report.cv_rmse_by_kind, "n_samples": report.n_samples,
+                 "n_deltas": report.n_deltas, "model_selection": kind},
+        data_sha256=_sha256(data),
     )  # fmt: skip
     console = Console()
     if free_motion is not None:

@@ -13,7 +13,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from ..calibration.regressors import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD
 from ..fem.response import TRANSDUCTIONS
 from ..robot import JOINT_MODELS
-from ..study import StudyResult, run_study
+from ..study import ModelId, StudyResult, run_study
 from . import cli
 from ._options import load_robot, robot_option
 
@@ -83,8 +83,6 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
 
 
 def _write_figures(directory: Path, result: StudyResult, dpi: int) -> None:
-    import matplotlib.pyplot as plt
-
     from ..report.results import seed_table4
     from ..report.stress_figure import stress_figure
     from ..report.study_figures import compensated_figure, sweeps_figure, table4_figure, workspace_figure
@@ -100,17 +98,20 @@ def _write_figures(directory: Path, result: StudyResult, dpi: int) -> None:
     for name, make in figures.items():
         fig = make()
         fig.savefig(directory / name, dpi=dpi)
-        plt.close(fig)
 
 
 def _print_summary(console: Console, results: list[StudyResult], output: Path, study_s: float, total_s: float) -> None:
+    from ..report.results import SEED_RMSE
+
+    before, after = SEED_RMSE["before"], SEED_RMSE["after"]
+    seed = f"{before['t1']:g}/{before['t2']:g} -> {after['t1']:g}/{after['t2']:g}"
     for r in results:
         orders = ", ".join(f"{name} {fit.order}{'' if fit.passed else ' (criterion not met)'}"
                            for name, fit in r.regressors.items())  # fmt: skip
         console.print(
             f"[bold]{r.robot.joints.model} joints[/bold]: prescale k1 = {r.prescale[0]:.4g}, k2 = {r.prescale[1]:.4g}; "
             f"regressor orders {orders}; RMSE T1/T2 [N m] before {r.rmse_before.t1:.3g}/{r.rmse_before.t2:.3g}, "
-            f"after {r.rmse_after.t1:.3g}/{r.rmse_after.t2:.3g} (seed: 0.436/0.696 -> 0.016/0.09); "
-            f"force RMSE [N] seed compensator {r.force_rmse['seed']:.3g}, matrix {r.force_rmse['matrix']:.3g}"
+            f"after {r.rmse_after.t1:.3g}/{r.rmse_after.t2:.3g} (seed: {seed}); "
+            f"force RMSE [N] seed compensator {r.force_rmse[ModelId.SEED]:.3g}, matrix {r.force_rmse[ModelId.MATRIX]:.3g}"
         )
     console.print(f"study {study_s:.2f} s, total {total_s:.1f} s; report: {output / 'report.html'} and {output / 'report.md'}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import math
 import re
 from pathlib import Path
 
@@ -10,25 +11,43 @@ import numpy as np
 from markdown_it import MarkdownIt
 
 from .. import __version__
+from ..calibration.regressors import fit_polynomial
 from ..io.files import atomic_writer
-from ..study import StudyResult
+from ..kinematics import SINGULAR_SIN_DELTA
+from ..materials import CARBON_STEEL, SEED_TABLE2_SHEAR_MODULUS
+from ..study import ModelId, Protocol, StudyResult, span_deg
+from .labels import model_label
 from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
 
-ERRATA = (
-    "**Eq. 10 is wrong**: the printed matrix is the transpose of the true inverse of Jᵀ; Eqs. 11 and 12 "
-    "inherit the error. sailforce uses (Jᵀ)⁻¹ = [[−l2 cos θ2, l3 cos θ1], [−l2 sin θ2, l3 sin θ1]] / "
-    "(l2 l3 sin(θ1 − θ2)).",
-    "**Eq. 13 (polar form) is garbled**: |F| = hypot(Fx, Fy), φ = atan2(Fy, Fx) are used instead.",
-    "**The estimate is singular** where sin(θ1 − θ2) = 0; the force error grows as 1/|sin Δ|. Poses with "
-    "|sin Δ| < sin 2° are refused or flagged.",
-    "**Table 1 is garbled** (its cells repeat Table 2), so the paper gives no link lengths or sections; "
-    "the default robot is our assumption.",
-    "**Table 2's shear modulus** (7.9e10 Pa) is inconsistent with E/2(1 + ν) = 8.2e10 Pa; G is derived from E and ν.",
-    "**A2 does not follow the stated rule**: its published order-4 fit passes plain R² > 0.999 (0.99919) but "
-    "not adjusted R² (0.99810), which picks order 5. `--criterion r2` reproduces it.",
-    "**The RMSEs have no unit in the paper**; they are torque errors of curves pre-scaled by 740 and 528.",
-    "**The Fig. 4 pose is not given**; this study uses θ1 = 75°, θ2 = 0.",
-)
+#: How far past the fitted Delta range [deg] a validation pose must lie to count as extrapolated.
+RANGE_SLACK_DEG = 1e-9
+
+
+def errata(protocol: Protocol) -> list[str]:
+    """The seed's errors the report lists, each number computed here rather than typed (docs/errata.md)."""
+    seed = seed_table4()
+    a2_order = len(SEED_REGRESSORS["amplitude_2"]) - 1
+    a2 = fit_polynomial(seed[:, 0], seed[:, 3], a2_order)
+    singular_deg = math.degrees(math.asin(SINGULAR_SIN_DELTA))
+    pose = protocol.stress_pose_deg
+    return [
+        "**Eq. 10 is wrong**: the printed matrix is the transpose of the true inverse of Jᵀ; Eqs. 11 and 12 "
+        "inherit the error. sailforce uses (Jᵀ)⁻¹ = [[−l2 cos θ2, l3 cos θ1], [−l2 sin θ2, l3 sin θ1]] / "
+        "(l2 l3 sin(θ1 − θ2)).",
+        "**Eq. 13 (polar form) is garbled**: |F| = hypot(Fx, Fy), φ = atan2(Fy, Fx) are used instead.",
+        "**The estimate is singular** where sin(θ1 − θ2) = 0; the force error grows as 1/|sin Δ|. Poses with "
+        f"|sin Δ| < sin {singular_deg:.3g}° are refused or flagged.",
+        "**Table 1 is garbled** (its cells repeat Table 2), so the paper gives no link lengths or sections; "
+        "the default robot is our assumption.",
+        f"**Table 2's shear modulus** ({SEED_TABLE2_SHEAR_MODULUS / 1e9:.0f} GPa) is inconsistent with E/2(1 + ν) = "
+        f"{CARBON_STEEL.G / 1e9:.0f} GPa; G is derived from E and ν.",
+        f"**A2 does not follow the stated rule**: its published order-{a2_order} fit passes plain R² > "
+        f"{a2.threshold:g} ({a2.r2:.5f}) but not adjusted R² ({a2.adj_r2:.5f}), which picks a higher order. "
+        "`--criterion r2` reproduces it.",
+        "**The RMSEs have no unit in the paper**; they are torque errors of curves pre-scaled by "
+        f"{SEED_PRESCALE[0]:g} and {SEED_PRESCALE[1]:g}.",
+        f"**The Fig. 4 pose is not given**; this study uses θ1 = {pose[0]:g}°, θ2 = {pose[1]:g}°.",
+    ]
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
@@ -57,7 +76,8 @@ def _table4_section(result: StudyResult, seed: np.ndarray) -> str:
     criterion = "adjusted R²" if result.criterion == "adj-r2" else "plain R²"
     return "\n\n".join([
         "## Table 4: amplitude and phase of each load cell",
-        "Least-squares sinusoid fits of each load-cell curve over all 24 force angles, against the torque "
+        f"Least-squares sinusoid fits of each load-cell curve over all {len(result.protocol.phi_deg)} force angles, "
+        "against the torque "
         "predicted by Eq. 7. **Sign convention**: s_i(φ) = T_i(φ + P_i)/A_i, so A_i is torque per signal unit "
         "and a positive P_i means the load-cell curve peaks P_i earlier in φ than the predicted torque. The "
         "seed does not state its convention; its amplitudes are in N·m per its (unstated) deflection unit, "
@@ -90,6 +110,7 @@ def _amplitude_shape(result: StudyResult, seed: np.ndarray) -> str:
 
 def _rmse_section(result: StudyResult) -> str:
     amp = result.torque_amplitude
+    protocol = result.protocol
     rel_b, rel_a = result.rmse_before.relative(amp), result.rmse_after.relative(amp)
     rel_e = result.rmse_after_estimator.relative(amp)
     rows = [
@@ -103,7 +124,7 @@ def _rmse_section(result: StudyResult) -> str:
     per_pose = [result.rmse_after_per_pose(i) for i in range(2)]
     delta_v = [np.degrees(result.validation[i].delta) for i in range(2)]
     low, high = np.degrees(result.compensator.delta_range)
-    outside = [np.flatnonzero((d < low - 1e-9) | (d > high + 1e-9)) for d in delta_v]
+    outside = [np.flatnonzero((d < low - RANGE_SLACK_DEG) | (d > high + RANGE_SLACK_DEG)) for d in delta_v]
     extrapolation = "; ".join(
         f"cell {i + 1}: {_g(per_pose[i][o].max(), 3)} N·m at Δ = {', '.join(f'{d:g}°' for d in delta_v[i][o])} "
         f"against a median of {_g(float(np.median(np.delete(per_pose[i], o))), 3)} N·m inside"
@@ -111,24 +132,28 @@ def _rmse_section(result: StudyResult) -> str:
     )  # fmt: skip
     return "\n\n".join([
         "## Validation: RMSE before and after compensation",
-        f"T1 on grid 1 (θ2 = 0, θ1 = 22.5…127.5°), T2 on grid 2 (θ1 = 120°, θ2 = −7.5…97.5°), pooled over poses "
-        f"and the 24 force angles. The torque amplitudes are F·l3 = {amp[0]:g} N·m and F·l2 = {amp[1]:g} N·m.",
+        f"T1 on grid 1 ({protocol.describe_grid(1, validation=True)}), T2 on grid 2 "
+        f"({protocol.describe_grid(2, validation=True)}), pooled over poses and the {len(protocol.phi_deg)} force "
+        f"angles. The torque amplitudes are F·l3 = {amp[0]:g} N·m and F·l2 = {amp[1]:g} N·m.",
         _table(["", "T1 [N·m]", "T2 [N·m]", "mean [N·m]", "relative T1 / T2 [%]", "seed T1 / T2"], rows),
         "![Compensated validation curves (Fig. 6)](fig6_compensated.png)",
-        "**Extrapolation at Δ = 127.5°.** The first pose of grid 2 and the last of grid 1 lie beyond the fitted "
-        f"range {low:g}…{high:g}°, where the polynomials extrapolate: {extrapolation or 'no pose lies outside'}.",
+        f"**Extrapolation.** Validation poses beyond the fitted range {low:g}…{high:g}°, where the polynomials "
+        f"extrapolate: {extrapolation or 'none lies outside'}.",
     ])
 
 
 def _beyond_section(result: StudyResult) -> str:
     matrix = result.matrix_compensator
-    force_rows = [[name, _g(value, 3), f"{100 * value / result.protocol.force_N:.3f}"] for name, value in result.force_rmse.items()]
+    protocol = result.protocol
+    force_rows = [[model_label(model, protocol), _g(value, 3), f"{100 * value / protocol.force_N:.3f}"]
+                  for model, value in result.force_rmse.items()]  # fmt: skip
     ws = result.workspace
     delta_deg = np.degrees(ws.delta)
-    inside = (delta_deg >= np.degrees(result.compensator.delta_range[0]) - 1e-9) & (
-        delta_deg <= np.degrees(result.compensator.delta_range[1]) + 1e-9)
-    ws_rows = [[name, f"{100 * e[inside].max():.3g}", f"{100 * e[~inside].max():.3g}", f"{100 * e.max():.3g}"]
-               for name, e in ws.relative_error.items()]  # fmt: skip
+    low, high = np.degrees(result.compensator.delta_range)
+    inside = (delta_deg >= low - RANGE_SLACK_DEG) & (delta_deg <= high + RANGE_SLACK_DEG)
+    ws_rows = [[model_label(model, protocol), f"{100 * e[inside].max():.3g}", f"{100 * e[~inside].max():.3g}",
+                f"{100 * e.max():.3g}"] for model, e in ws.relative_error.items()]  # fmt: skip
+    fitted = f"{low:g}…{high:g}°"
     return "\n\n".join([
         "## Beyond the seed",
         "The seed compensates each load cell by a gain and a phase, fitted from one sweep per cell. Here the "
@@ -138,14 +163,14 @@ def _beyond_section(result: StudyResult) -> str:
         f"cross-validation of the force error: order {matrix.order} was chosen (CV force RMSE by order: "
         + ", ".join(f"{v:.3g}" for v in matrix.cv_rmse) + " N). All three estimators solve the same 2×2 system at run time.",
         "### Force-vector error on the validation grids",
-        _table(["model", "RMSE ‖F̂ − F‖ [N]", f"% of {result.protocol.force_N:g} N"], force_rows),
-        "### Over the whole workspace, Δ = 15…165°",
-        _table(["model", "max inside 15…120° [%]", "max outside [%]", "max [%]"], ws_rows),
+        _table(["model", "RMSE ‖F̂ − F‖ [N]", f"% of {protocol.force_N:g} N"], force_rows),
+        f"### Over the whole workspace, Δ = {span_deg(protocol.workspace_delta_deg)}",
+        _table(["model", f"max inside {fitted} [%]", "max outside [%]", "max [%]"], ws_rows),
         "![Force error over the workspace](workspace.png)",
-        "Both fitted compensators are only as good as the Δ range they were calibrated on: beyond 120° they "
+        f"Both fitted compensators are only as good as the Δ range they were calibrated on: outside {fitted} they "
         "extrapolate, and the error grows fast. The last model, the same matrix compensator fitted on a sweep "
-        "that spans the whole workspace (Δ = 15…165° in 15° steps), shows that the remedy is to calibrate over "
-        "the range the robot uses.",
+        f"that spans the whole workspace (Δ = {span_deg(protocol.wide_calibration_delta_deg, step=True)}), shows "
+        "that the remedy is to calibrate over the range the robot uses.",
     ])  # fmt: skip
 
 
@@ -159,7 +184,7 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
             f"{t[:, 4].min():.3g} … {t[:, 4].max():.3g}",
             f"{100 * amp_var[0]:.3g} / {100 * amp_var[1]:.3g}",
             f"{_g(r.rmse_before.mean, 3)} → {_g(r.rmse_after.mean, 3)}",
-            f"{_g(r.force_rmse['uncompensated'], 3)} / {_g(r.force_rmse['seed'], 3)} / {_g(r.force_rmse['matrix'], 3)}",
+            " / ".join(_g(r.force_rmse[m], 3) for m in (ModelId.UNCOMPENSATED, ModelId.SEED, ModelId.MATRIX)),
             f"{_g(r.delta_only_discrepancy['amplitude_relative'], 2)} / {_g(r.delta_only_discrepancy['phase_deg'], 2)}",
         ]
 
@@ -184,8 +209,8 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
         "relative to the load cells; the seed's Table 1 is garbled, so we cannot match its geometry.",
         "**The Δ-only dependence.** With locked motors and no gravity, changing θ2 at fixed Δ rotates the whole "
         "structure rigidly, so the sensing map is M0(Δ) R(−θ2). The last column compares both cells' amplitude "
-        "and phase from sweep 1 (θ2 = 0) and sweep 2 (θ1 = 120°) at equal Δ: they agree to rounding, which is "
-        "why one table in Δ serves every pose.",
+        f"and phase from sweep 1 ({main.protocol.describe_grid(1)}) and sweep 2 ({main.protocol.describe_grid(2)}) "
+        "at equal Δ: they agree to rounding, which is why one table in Δ serves every pose.",
     ])  # fmt: skip
 
 
@@ -194,20 +219,23 @@ def report_markdown(main: StudyResult, comparison: StudyResult | None, study_sec
     seed = seed_table4()
     k = main.prescale
     robot = main.robot
+    protocol = main.protocol
+    sweep_runs, validation_runs = protocol.runs()
     parts = [
         "# SAIL: the seed paper's virtual study, reproduced",
         f"sailforce {__version__} · joints **{robot.joints.model}** · transduction **{main.transduction}** · "
         f"criterion **{main.criterion} > {main.threshold:g}** · study computed in {study_seconds:.2f} s "
-        "(the seed ran 384 + 384 SolidWorks analyses).",
+        f"(the protocol is {sweep_runs} + {validation_runs} analyses, which the seed ran in SolidWorks).",
         f"Robot: l1 = {robot.arm.l1:g} m, l2 = {robot.arm.l2:g} m, l3 = {robot.arm.l3:g} m, l4 = {robot.arm.l4:g} m; "
         f"links {robot.link_section.depth * 1e3:g} × {robot.link_section.thickness * 1e3:g} mm "
         f"{robot.link_material.name}; load cell EI = {robot.loadcell.bending_rigidity:.4g} N·m², "
         f"{robot.loadcell.capacity_N:g} N capacity; motors {robot.motors.model}.",
         "## Errata in the seed paper",
-        "\n".join(f"- {e}" for e in ERRATA),
+        "\n".join(f"- {e}" for e in errata(protocol)),
         "## Stress patterns (Fig. 4)",
-        f"{main.protocol.force_N:g} N at φ = 0…315° in 45° steps, at θ1 = {main.protocol.stress_pose_deg[0]:g}°, "
-        f"θ2 = {main.protocol.stress_pose_deg[1]:g}°. As in the seed, the driven links l1 and l2 are always in "
+        f"{protocol.force_N:g} N at φ = {span_deg(protocol.stress_phi_deg, step=True)}, at θ1 = "
+        f"{protocol.stress_pose_deg[0]:g}°, θ2 = {protocol.stress_pose_deg[1]:g}°. As in the seed, the driven links "
+        "l1 and l2 are always in "
         "bending; l3 and l4 change between bending, tension and compression with φ.",
         "![Stress patterns](fig4_stress.png)",
         "## Sweeps 1 and 2 (Fig. 5)",

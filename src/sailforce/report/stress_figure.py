@@ -30,7 +30,7 @@ def panel_label(k: int) -> str:
     return f"({letters})"
 
 
-def stress_figure(response: ArmResponse, phi, force: float, title: str = ""):
+def stress_figure(response: ArmResponse, phi, force: float, title: str = "") -> Figure:
     """One panel per force angle ``phi`` [rad] at the single pose of ``response``.
 
     Every member is drawn coloured by von Mises stress [MPa], on one shared
