@@ -9,7 +9,7 @@ VECTORS := $(BUILD)/vectors
 #: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
 EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
 
-.PHONY: demo test lint c-test c-default cross cross-test arm-toolchain qemu-arm valgrind bench fuzz install clean
+.PHONY: demo test lint docs c-test c-default cross cross-test arm-toolchain qemu-arm valgrind bench fuzz install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,10 @@ test: $(STAMP) lint c-test
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests bench docs c
 	$(VENV)/bin/mypy
+
+# the documentation site (MkDocs Material; the CLI and API pages generated from the code) into build/site
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir $(BUILD)/site
 
 # libsail: shared test vectors from Python, then CTest in float and in double.
 c-test: $(STAMP)

@@ -180,3 +180,23 @@ def test_stress_draws_a_figure(tmp_path):
     assert result.exit_code == 0, result.output
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20_000
     assert "smallest yield safety factor" in result.output
+
+
+@pytest.mark.parametrize(("blocked", "args", "extra"), [
+    ("matplotlib", ["reproduce", "-o", "{tmp}/out"], "report"),
+    ("markdown_it", ["reproduce", "-o", "{tmp}/out"], "report"),
+    ("matplotlib", ["stress", "-o", "{tmp}/s.png"], "report"),
+    ("serial", ["estimate", "--calibration", "c/examples/calibration.json", "--serial", "loop://"], "serial"),
+])  # fmt: skip
+def test_a_missing_extra_is_named(blocked, args, extra, tmp_path):
+    """Without an optional package, the command says which extra to install, in one line, exit 1 (issue 16, item 6)."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    code = (f"import sys; sys.modules[{blocked!r}] = None; sys.argv = ['sail'] + {[a.format(tmp=tmp_path) for a in args]!r}; "
+            "from sailforce.cli import main; main()")  # fmt: skip
+    result = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1, result.stderr
+    assert f"pip install 'sailforce[{extra}]'" in result.stderr and "Traceback" not in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists() and not (tmp_path / "s.png").exists()

@@ -1,6 +1,6 @@
 """Kinematics of the SAIL parallelogram arm (seed paper Eqs. 1 and 4).
 
-Geometry (README, "The linkage"): the motors sit at B, the origin.  Link l1
+Geometry (docs/index.md, "The linkage"): the motors sit at B, the origin.  Link l1
 runs from B to P1 at angle theta1, link l2 from B to P2 at angle theta2.  Link
 l3 runs from P2 through P3 to the end effector A, parallel to l1, with
 |P2 P3| = l1.  Link l4 runs from P1 to P3, parallel to l2, with |P1 P3| = l2.

@@ -119,8 +119,9 @@ def _line_source(serial_port, baud):
     if serial_port is None:
         yield iter(lambda: read_line(sys.stdin.buffer), b"")
         return
-    import serial
+    from .._extras import require
 
+    serial = require("serial", "serial", "--serial")
     try:
         port = serial.serial_for_url(serial_port, baudrate=baud, timeout=None)
     except (serial.SerialException, ValueError) as exc:

@@ -46,6 +46,8 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
     table4.csv, results.json, report.md and report.html (self-contained).
     The comparison pass goes to DIR/<joints>/.
     """
+    import sailforce.report  # noqa: F401  (checks the report extra before anything is written)
+
     console = Console(stderr=True)
     started = time.perf_counter()
     output.mkdir(parents=True, exist_ok=True)

@@ -6,7 +6,7 @@ and passes every other column through untouched.
 
 **One line, one row.**  In a CSV file every physical line after the header
 is one row, whatever it holds, so a file read in chunks and the same bytes
-read line by line from a stream give the same rows (README.md, "Guarantees"):
+read line by line from a stream give the same rows (docs/reference/guarantees.md):
 
 - a line ends at ``\\n``; one ``\\r`` before it belongs to the line end;
   the last line needs no line end; a UTF-8 byte-order mark before the
