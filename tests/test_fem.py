@@ -271,3 +271,38 @@ def test_one_member_transformation():
     monomials = np.stack([c * c, c * s, s * s, c, s, np.ones_like(c)], axis=-1)
     np.testing.assert_allclose(np.einsum("nm,mab->nab", monomials, basis), np.swapaxes(t, -1, -2) @ k @ t,
                                rtol=1e-12, atol=1e-9 * np.abs(k).max())  # fmt: skip
+
+
+# -- per-joint models (issue 12, item 1) -------------------------------------------------------------------
+
+
+def _signals(joints: Joints) -> np.ndarray:
+    theta1 = np.radians(np.arange(15.0, 166.0, 15.0))
+    response = simulate(Robot(joints=joints), theta1, np.radians(10.0))
+    return np.concatenate([response.torques.ravel(), response.signal("deflection").ravel(), response.signal("bridge").ravel()])
+
+
+@pytest.mark.parametrize("model", ["pin", "bonded", "spring"])
+def test_per_joint_models_equal_to_the_shared_one_change_nothing(model):
+    from sailforce.robot import Joint
+
+    shared = Joints(model, 120.0)
+    each = Joints("pin", 5.0, P1=Joint(model, 120.0), P2=Joint(model, 120.0), P3=Joint(model, 120.0))
+    assert each.uniform and each.label == model
+    np.testing.assert_array_equal(_signals(each), _signals(shared))
+
+
+@pytest.mark.parametrize("joint", ["P1", "P2", "P3"])
+def test_one_joint_spring_spans_pin_to_bonded_at_that_joint(joint):
+    """A zero-stiffness spring is that joint pinned; a very stiff one approaches it bonded, the others unchanged."""
+    from sailforce.robot import Joint
+
+    def at(model: str, stiffness: float = 0.0) -> np.ndarray:
+        return _signals(Joints("bonded", **{joint: Joint(model, stiffness)}))
+
+    pinned, bonded = at("pin"), at("bonded")
+    assert np.abs(pinned - bonded).max() > 1e-3 * np.abs(bonded).max()  # the joint matters
+    np.testing.assert_allclose(at("spring", 0.0), pinned, rtol=0, atol=1e-9 * np.abs(pinned).max())
+    stiff = at("spring", 1e9)  # 1e9 N m/rad against links of EI/L ~ 1e3: a relative gap ~1e-6
+    np.testing.assert_allclose(stiff, bonded, rtol=0, atol=1e-4 * np.abs(bonded).max())
+    assert Joints("bonded", **{joint: Joint("spring", 1.0)}).label.count("bonded") == 2

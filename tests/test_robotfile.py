@@ -124,3 +124,34 @@ def test_bad_structure_sections_are_refused(tmp_path, extra, message):
     with pytest.raises(RobotFileError, match=message) as info:
         load_robot_file(path)
     assert str(path) in str(info.value)
+
+
+def test_per_joint_tables_are_read_and_written(tmp_path):
+    """``[joints.P1]`` overrides ``[joints]`` at P1 only; the template writes it back (issue 12, item 1)."""
+    from sailforce.robot import Joint, Joints, Robot
+
+    path = tmp_path / "r.toml"
+    path.write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[joints]\nmodel = \"bonded\"\n"
+                    "[joints.P2]\nmodel = \"spring\"\nstiffness = 170\n")  # fmt: skip
+    joints = load_robot_file(path).robot.joints
+    assert joints.at("P1") == Joint("bonded", 50.0) and joints.at("P2") == Joint("spring", 170.0)
+    assert joints.label == "P1 bonded, P2 spring 170, P3 bonded"
+    robot = Robot(joints=Joints("pin", 20.0, P3=Joint("bonded")))
+    path.write_text(template(robot))
+    assert load_robot_file(path).robot == robot
+    assert robot.with_joints("spring").joints == Joints("spring", 20.0)  # every joint, overrides dropped
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    ("[joints.P1]\nmodel = \"glued\"\n", "joints model = 'glued'"),
+    ("[joints.P1]\nmodel = 1\n", "\\[joints.P1\\] model = 1: expected a quoted name"),
+    ("[joints.P4]\nmodel = \"pin\"\n", "\\[joints\\] has unknown key\\(s\\) P4"),
+    ("[joints.P2]\nstifness = 3\n", "\\[joints.P2\\] has unknown key\\(s\\) stifness"),
+    ("[joints.P3]\nstiffness = -3\n", "joints stiffness = -3"),
+])  # fmt: skip
+def test_bad_per_joint_tables_are_refused(tmp_path, extra, message):
+    path = tmp_path / "r.toml"
+    path.write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n" + extra)
+    with pytest.raises(RobotFileError, match=message) as info:
+        load_robot_file(path)
+    assert str(path) in str(info.value)

@@ -20,9 +20,13 @@ JOINT_MODELS = ("pin", "bonded", "spring")
 MOTOR_MODELS = ("locked", "gearbox")
 
 
+#: The passive joints, in the order the frame model lists them.
+JOINT_NAMES = ("P1", "P2", "P3")
+
+
 @dataclass(frozen=True)
-class Joints:
-    """How the passive joints P1, P2 and P3 carry moment.
+class Joint:
+    """How one passive joint carries moment.
 
     - ``pin``: an ideal revolute joint, no moment;
     - ``bonded``: rigid, as SolidWorks' default bonded contact;
@@ -35,8 +39,44 @@ class Joints:
     def __post_init__(self) -> None:
         if self.model not in JOINT_MODELS:
             raise GeometryError(f"joints model = {self.model!r}: expected one of {', '.join(JOINT_MODELS)}")
-        if not (math.isfinite(self.stiffness) and self.stiffness >= 0):
+        if not (isinstance(self.stiffness, (int, float)) and math.isfinite(self.stiffness) and self.stiffness >= 0):
             raise GeometryError(f"joints stiffness = {self.stiffness!r} N m/rad must be >= 0 and finite")
+
+
+@dataclass(frozen=True)
+class Joints(Joint):
+    """The passive joints P1, P2 and P3: one :class:`Joint` for all, and optional per-joint ones.
+
+    ``model`` and ``stiffness`` serve every joint that ``P1``, ``P2`` or ``P3``
+    does not override (a robot file's ``[joints]`` and ``[joints.P1]`` ...).
+    """
+
+    P1: Joint | None = None
+    P2: Joint | None = None
+    P3: Joint | None = None
+
+    def at(self, name: str) -> Joint:
+        """The joint at ``name`` (``"P1"``, ``"P2"`` or ``"P3"``): its own, or the shared one."""
+        if name not in JOINT_NAMES:
+            raise GeometryError(f"joint {name!r}: expected one of {', '.join(JOINT_NAMES)}")
+        own = getattr(self, name)
+        return own if own is not None else Joint(self.model, self.stiffness)
+
+    @property
+    def uniform(self) -> bool:
+        """True when every joint has the shared model and stiffness."""
+        return len({self.at(name) for name in JOINT_NAMES}) == 1
+
+    @property
+    def label(self) -> str:
+        """``"bonded"``, or per joint where they differ: ``"P1 spring 170, P2 bonded, P3 pin"``."""
+        if self.uniform:
+            return self.at(JOINT_NAMES[0]).model
+        parts = []
+        for name in JOINT_NAMES:
+            joint = self.at(name)
+            parts.append(f"{name} {joint.model}" + (f" {joint.stiffness:g}" if joint.model == "spring" else ""))
+        return ", ".join(parts)
 
 
 @dataclass(frozen=True)
@@ -121,5 +161,5 @@ class Robot:
                 )
 
     def with_joints(self, model: str) -> Robot:
-        """A copy with another joint model, keeping the spring stiffness."""
-        return replace(self, joints=replace(self.joints, model=model))
+        """A copy with ``model`` at every joint (per-joint overrides dropped), keeping the spring stiffness."""
+        return replace(self, joints=Joints(model, self.joints.stiffness))

@@ -111,7 +111,7 @@ def _print_summary(console: Console, results: list[StudyResult], output: Path, s
         orders = ", ".join(f"{name} {fit.order}{'' if fit.passed else ' (criterion not met)'}"
                            for name, fit in r.regressors.items())  # fmt: skip
         console.print(
-            f"[bold]{r.robot.joints.model} joints[/bold]: prescale k1 = {r.prescale[0]:.4g}, k2 = {r.prescale[1]:.4g}; "
+            f"[bold]{r.robot.joints.label} joints[/bold]: prescale k1 = {r.prescale[0]:.4g}, k2 = {r.prescale[1]:.4g}; "
             f"regressor orders {orders}; RMSE T1/T2 [N m] before {r.rmse_before.t1:.3g}/{r.rmse_before.t2:.3g}, "
             f"after {r.rmse_after.t1:.3g}/{r.rmse_after.t2:.3g} (seed: {seed}); "
             f"force RMSE [N] seed compensator {r.force_rmse[ModelId.SEED]:.3g}, matrix {r.force_rmse[ModelId.MATRIX]:.3g}"

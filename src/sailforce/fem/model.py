@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..robot import Robot
+from ..robot import JOINT_NAMES, Robot
 from .elements import local_stiffness, shear_parameter
 from .frame import GROUND, Frame, make_frame
 
@@ -58,7 +58,7 @@ MEMBER_AXIS = np.array([axis for _, _, _, axis, _ in MEMBERS])
 JOINT_SLOTS = {("l1 outer", "j"): "P1/l1", ("l4", "i"): "P1/l4",
                ("l2 outer", "j"): "P2/l2", ("l3 inner", "i"): "P2/l3",
                ("l3 inner", "j"): "P3/l3", ("l3 outer", "i"): "P3/l3", ("l4", "j"): "P3/l4"}  # fmt: skip
-JOINTS = (("P1/l1", "P1/l4"), ("P2/l2", "P2/l3"), ("P3/l3", "P3/l4"))
+JOINTS = (("P1/l1", "P1/l4"), ("P2/l2", "P2/l3"), ("P3/l3", "P3/l4"))  #: the bodies each joint of JOINT_NAMES joins
 
 
 @dataclass(frozen=True)
@@ -118,8 +118,8 @@ def build_model(robot: Robot, *, shear_deformation: bool = True) -> ArmModel:
     slot = {f"{node}.r": f"{node}.r" for node in NODES if node not in ("P1", "P2", "P3")}
     for body_slot in JOINT_SLOTS.values():
         slot[body_slot] = body_slot
-    if robot.joints.model == "bonded":
-        for first, second in JOINTS:
+    for name, (first, second) in zip(JOINT_NAMES, JOINTS):
+        if robot.joints.at(name).model == "bonded":
             slot[second] = first
     for name in dict.fromkeys(slot.values()):
         dof[name] = len(dof)
@@ -142,10 +142,11 @@ def build_model(robot: Robot, *, shear_deformation: bool = True) -> ArmModel:
         for motor in ("B1.r", "B2.r"):
             springs.append((dof[motor], GROUND))
             spring_k.append(robot.motors.stiffness)
-    if robot.joints.model == "spring":
-        for first, second in JOINTS:
+    for name, (first, second) in zip(JOINT_NAMES, JOINTS):
+        joint = robot.joints.at(name)
+        if joint.model == "spring":
             springs.append((dof[first], dof[second]))
-            spring_k.append(robot.joints.stiffness)
+            spring_k.append(joint.stiffness)
 
     lengths = member_lengths(robot)
     EA, EI, kGA = _rigidities(robot, shear_deformation)

@@ -44,8 +44,8 @@ def solve_with_pynite(model: ArmModel, theta1: float, theta2: float) -> PyNiteRe
     robot = model.robot
     if model.shear_deformation:
         raise SailError("PyNite has no shear deformation: build the model with shear_deformation=False")
-    if robot.joints.model == "spring":
-        raise SailError("the PyNite cross-check covers pin and bonded joints only")
+    if robot.joints.model == "spring" or not robot.joints.uniform:
+        raise SailError("the PyNite cross-check covers pin and bonded joints only, the same at P1, P2 and P3")
 
     fe = FEModel3D()
     positions = node_positions(model, theta1, theta2)

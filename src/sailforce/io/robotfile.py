@@ -16,7 +16,7 @@ from typing import Any
 from ..arm import Arm
 from ..errors import GeometryError, RobotFileError
 from ..materials import RectangularSection
-from ..robot import Robot
+from ..robot import JOINT_NAMES, Joint, Joints, Robot
 
 LINK_KEYS = ("l1", "l2", "l3", "l4")
 MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
@@ -28,7 +28,7 @@ SECTIONS = {
     "sections": ("depth", "thickness"),
     "materials": ("links", "loadcells"),
     "loadcells": LOADCELL_KEYS,
-    "joints": ("model", "stiffness"),
+    "joints": ("model", "stiffness", *JOINT_NAMES),
     "motors": ("model", "stiffness"),
     "handle": ("mass", "position"),
     "plane": ("tilt_deg", "axis_deg"),
@@ -88,6 +88,10 @@ crosstalk_moment = {xm:g}      # ... per unit (moment / (capacity x length))
 [joints]            # the passive joints P1, P2, P3
 model = "{joints}"       # "pin" (ideal revolute), "bonded" (rigid, SolidWorks' default contact) or "spring"
 stiffness = {joint_k:g}    # N m/rad, used by "spring"
+# [joints.P1]       # optional: one joint's own model and stiffness, overriding [joints] (also P2, P3)
+# model = "spring"
+# stiffness = 170
+{joint_overrides}
 
 [motors]            # the motors at B
 model = "{motors}"    # "locked" (clamped) or "gearbox" (torsional spring to ground)
@@ -127,9 +131,20 @@ def template(robot: Robot | None = None) -> str:
         capacity_kg=cell.capacity_kg, rated_deflection=cell.rated_deflection, length=cell.length,
         position=cell.position, cell_depth=cell.block.depth, cell_thickness=cell.block.thickness,
         rated_output=cell.rated_output_mV_V, xa=cell.crosstalk_axial, xm=cell.crosstalk_moment,
-        joints=r.joints.model, joint_k=r.joints.stiffness, motors=r.motors.model, motor_k=r.motors.stiffness,
+        joints=r.joints.model, joint_k=r.joints.stiffness, joint_overrides=_joint_overrides(r.joints),
+        motors=r.motors.model, motor_k=r.motors.stiffness,
         handle_mass=r.handle.mass, handle_position=r.handle.position, tilt=r.plane.tilt_deg, axis=r.plane.axis_deg,
     )  # fmt: skip
+
+
+def _joint_overrides(joints: Joints) -> str:
+    """``[joints.P1]`` ... tables for the joints that have their own model."""
+    tables = []
+    for name in JOINT_NAMES:
+        own = getattr(joints, name)
+        if own is not None:
+            tables.append(f'[joints.{name}]\nmodel = "{own.model}"\nstiffness = {own.stiffness:g}\n')
+    return "\n".join(tables)
 
 
 def write_template(path: str | Path, *, overwrite: bool = False) -> Path:
@@ -177,9 +192,11 @@ def load_robot_file(path: str | Path) -> RobotFile:
     return RobotFile(path=path, robot=robot)
 
 
-def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | None = None) -> dict[str, Any]:
-    """An optional table, checked for unknown keys and non-numeric values."""
+def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | None = None, *,
+           parent: str = "") -> dict[str, Any]:
+    """An optional table, checked for unknown keys and non-numeric values (``parent``: its section, for messages)."""
     table = data.get(name, {})
+    name = f"{parent}.{name}" if parent else name
     if not isinstance(table, dict):
         raise RobotFileError(f"{path}: [{name}] must be a table")
     allowed = keys if keys is not None else SECTIONS[name.split(".")[0]]
@@ -198,14 +215,16 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
     default = Robot(arm=arm)
     sections = _table(path, data, "sections")
     materials = _table(path, data, "materials")
-    link_mat = _table(path, materials, "links", MATERIAL_KEYS) if "links" in materials else {}
-    cell_mat = _table(path, materials, "loadcells", MATERIAL_KEYS) if "loadcells" in materials else {}
+    link_mat = _table(path, materials, "links", MATERIAL_KEYS, parent="materials") if "links" in materials else {}
+    cell_mat = _table(path, materials, "loadcells", MATERIAL_KEYS, parent="materials") if "loadcells" in materials else {}
     cells = _table(path, data, "loadcells")
     joints = _table(path, data, "joints")
     motors = _table(path, data, "motors")
     handle = _table(path, data, "handle")
     plane = _table(path, data, "plane")
-    for name, table in (("joints", joints), ("motors", motors)):
+    per_joint = {name: _table(path, joints, name, ("model", "stiffness"), parent="joints") for name in JOINT_NAMES if name in joints}
+    shared = {k: v for k, v in joints.items() if k not in JOINT_NAMES}
+    for name, table in (("joints", shared), ("motors", motors), *((f"joints.{n}", j) for n, j in per_joint.items())):
         if "model" in table and not isinstance(table["model"], str):
             raise RobotFileError(f"{path}: [{name}] model = {table['model']!r}: expected a quoted name")
 
@@ -221,7 +240,8 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
         loadcell=replace(
             cell_default, block=cell_block, material=replace(cell_default.material, **cell_mat), **cell_fields
         ),
-        joints=replace(default.joints, **joints),
+        joints=Joints(shared.get("model", default.joints.model), shared.get("stiffness", default.joints.stiffness),
+                      *(Joint(**per_joint[name]) if name in per_joint else None for name in JOINT_NAMES)),
         motors=replace(default.motors, **motors),
         handle=replace(default.handle, **handle),
         plane=replace(default.plane, **plane),

@@ -179,7 +179,7 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
         t = r.table4
         amp_var = [np.ptp(t[:, c]) / np.mean(t[:, c]) for c in (1, 3)]
         return [
-            r.robot.joints.model,
+            r.robot.joints.label,
             f"{t[:, 2].min():.3g} … {t[:, 2].max():.3g}",
             f"{t[:, 4].min():.3g} … {t[:, 4].max():.3g}",
             f"{100 * amp_var[0]:.3g} / {100 * amp_var[1]:.3g}",
@@ -223,7 +223,7 @@ def report_markdown(main: StudyResult, comparison: StudyResult | None, study_sec
     sweep_runs, validation_runs = protocol.runs()
     parts = [
         "# SAIL: the seed paper's virtual study, reproduced",
-        f"sailforce {__version__} · joints **{robot.joints.model}** · transduction **{main.transduction}** · "
+        f"sailforce {__version__} · joints **{robot.joints.label}** · transduction **{main.transduction}** · "
         f"criterion **{main.criterion} > {main.threshold:g}** · study computed in {study_seconds:.2f} s "
         f"(the protocol is {sweep_runs} + {validation_runs} analyses, which the seed ran in SolidWorks).",
         f"Robot: l1 = {robot.arm.l1:g} m, l2 = {robot.arm.l2:g} m, l3 = {robot.arm.l3:g} m, l4 = {robot.arm.l4:g} m; "

@@ -46,7 +46,7 @@ def results_dict(result: StudyResult) -> dict[str, object]:
     amplitude = result.torque_amplitude
     return {
         "software": f"sailforce {__version__}",
-        "joints": result.robot.joints.model,
+        "joints": result.robot.joints.label,
         "transduction": result.transduction,
         "robot": asdict(result.robot),
         "protocol": asdict(result.protocol),

@@ -57,7 +57,7 @@ def sweeps_figure(result: StudyResult) -> Figure:
         ax.plot(phi_deg, k[i] * grid.signal[j, i], "o", color="tab:red", ms=3, label=f"k{i + 1} × load {i + 1}")
 
     return _curve_grid(result, result.sweeps, draw,
-                       f"Sweeps 1 and 2 ({result.robot.joints.model} joints, {result.transduction}): load-cell curves "
+                       f"Sweeps 1 and 2 ({result.robot.joints.label} joints, {result.transduction}): load-cell curves "
                        f"scaled by k1 = {k[0]:.4g}, k2 = {k[1]:.4g} (least squares) against the predicted torque")  # fmt: skip
 
 
@@ -72,7 +72,7 @@ def compensated_figure(result: StudyResult) -> Figure:
 
     return _curve_grid(result, result.validation, draw,
                        "Validation on the offset grids: before and after the seed's compensator "
-                       f"({result.robot.joints.model} joints)")  # fmt: skip
+                       f"({result.robot.joints.label} joints)")  # fmt: skip
 
 
 def table4_figure(result: StudyResult, seed_table: np.ndarray) -> Figure:
@@ -100,7 +100,7 @@ def table4_figure(result: StudyResult, seed_table: np.ndarray) -> Figure:
         ax.set_xlabel("Δ [deg]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle(f"Table 4 ({result.robot.joints.model} joints): points, with the selected regressors as lines; "
+    fig.suptitle(f"Table 4 ({result.robot.joints.label} joints): points, with the selected regressors as lines; "
                  "dashed: the seed's published values", fontsize=10)  # fmt: skip
     return fig
 
@@ -127,6 +127,6 @@ def workspace_figure(result: StudyResult) -> Figure:
     ax.set_ylabel("force error, RMS over φ [% of |F|]")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    ax.set_title(f"Force-vector error over the workspace ({result.robot.joints.model} joints, "
+    ax.set_title(f"Force-vector error over the workspace ({result.robot.joints.label} joints, "
                  f"{result.protocol.force_N:g} N)", fontsize=10)  # fmt: skip
     return fig
