@@ -41,7 +41,7 @@ from .calibration.compensation import (
     torque_rows,
 )
 from .calibration.regressors import DEFAULT_CRITERION, DEFAULT_THRESHOLD, PolynomialFit, select_order
-from .fem.model import build_model
+from .fem.model import ArmModel, build_model
 from .fem.response import ArmResponse, simulate_model
 from .robot import Robot
 
@@ -232,9 +232,7 @@ def run_study(
     arm = robot.arm
 
     def curves(theta1, theta2) -> Curves:
-        unit = simulate_model(model, theta1, theta2).signal(transduction)
-        directions = np.stack([np.cos(phi), np.sin(phi)]) * force  # (2, n_phi)
-        return Curves(theta1, theta2, unit @ directions, torque_rows(arm, theta1, theta2) @ directions, unit)
+        return _curves(model, transduction, theta1, theta2, phi, force)
 
     stress_response = simulate_model(model, *np.radians(protocol.stress_pose_deg))
     sweeps = (curves(*protocol.sweep_poses(1)), curves(*protocol.sweep_poses(2)))
@@ -281,6 +279,25 @@ def run_study(
         rmse_matrix=rmse_matrix, force_rmse=force_rmse, workspace=workspace,
         delta_only_discrepancy=_delta_only_discrepancy(sweeps, phi, force, arm),
     )
+
+
+def _curves(model: ArmModel, transduction: str, theta1, theta2, phi: np.ndarray, force: float) -> Curves:
+    """Both cells' signals and the predicted torques at each pose, for ``force`` at each angle ``phi``."""
+    unit = simulate_model(model, theta1, theta2).signal(transduction)
+    directions = np.stack([np.cos(phi), np.sin(phi)]) * force  # (2, n_phi)
+    return Curves(theta1, theta2, unit @ directions, torque_rows(model.robot.arm, theta1, theta2) @ directions, unit)
+
+
+def table4(robot: Robot, transduction: str = "deflection", *, protocol: Protocol = Protocol()) -> np.ndarray:
+    """Seed Table 4 of ``robot``: (n_delta, 5) :data:`TABLE4_COLUMNS` from the two sweeps alone (no validation).
+
+    The quantity :mod:`sailforce.identify` fits a robot's physical parameters to.
+    """
+    model = build_model(robot)
+    phi = np.radians(protocol.phi_deg)
+    sweeps = (_curves(model, transduction, *protocol.sweep_poses(1), phi, protocol.force_N),
+              _curves(model, transduction, *protocol.sweep_poses(2), phi, protocol.force_N))  # fmt: skip
+    return _table4(sweeps, phi, protocol.force_N, robot.arm)
 
 
 def _least_squares_scale(signal: np.ndarray, torque: np.ndarray) -> float:
