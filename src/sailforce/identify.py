@@ -49,24 +49,29 @@ def parameter_names(robot: Robot) -> tuple[str, ...]:
     return ("joints.stiffness", *(f"joints.{name}.stiffness" for name in JOINT_NAMES))
 
 
-def with_parameter(robot: Robot, name: str, value: float) -> Robot:
-    """A copy of ``robot`` with the parameter ``name`` (see :func:`parameter_names`) set to ``value``."""
+def _joint_of(robot: Robot, name: str) -> str:
+    """``""`` for ``joints.stiffness`` (the shared joint), ``"P1"`` for ``joints.P1.stiffness`` ..."""
     parts = name.split(".")
     if parts == ["joints", "stiffness"]:
-        return replace(robot, joints=replace(robot.joints, stiffness=float(value)))
+        return ""
     if len(parts) == 3 and parts[0] == "joints" and parts[1] in JOINT_NAMES and parts[2] == "stiffness":
-        own = replace(robot.joints.at(parts[1]), stiffness=float(value))
-        return replace(robot, joints=replace(robot.joints, **{parts[1]: own}))
+        return parts[1]
     raise IdentifyError(f"unknown parameter {name!r}: expected one of {', '.join(parameter_names(robot))}")
+
+
+def with_parameter(robot: Robot, name: str, value: float) -> Robot:
+    """A copy of ``robot`` with the parameter ``name`` (see :func:`parameter_names`) set to ``value``."""
+    joint = _joint_of(robot, name)
+    if not joint:
+        return replace(robot, joints=replace(robot.joints, stiffness=float(value)))
+    own = replace(robot.joints.at(joint), stiffness=float(value))
+    return replace(robot, joints=replace(robot.joints, **{joint: own}))
 
 
 def get_parameter(robot: Robot, name: str) -> float:
-    parts = name.split(".")
-    if parts == ["joints", "stiffness"]:
-        return float(robot.joints.stiffness)
-    if len(parts) == 3 and parts[0] == "joints" and parts[1] in JOINT_NAMES and parts[2] == "stiffness":
-        return float(robot.joints.at(parts[1]).stiffness)
-    raise IdentifyError(f"unknown parameter {name!r}: expected one of {', '.join(parameter_names(robot))}")
+    """The value of the parameter ``name`` on ``robot``."""
+    joint = _joint_of(robot, name)
+    return float(robot.joints.at(joint).stiffness if joint else robot.joints.stiffness)
 
 
 @dataclass(frozen=True)
