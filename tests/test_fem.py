@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -9,7 +11,7 @@ from hypothesis import strategies as st
 
 from sailforce import Arm
 from sailforce.errors import GeometryError
-from sailforce.fem.elements import local_stiffness, shear_parameter
+from sailforce.fem.elements import flexibility_stiffness, local_stiffness, shear_parameter
 from sailforce.fem.frame import make_frame, reactions, solve
 from sailforce.fem.model import NODES, build_model, node_positions
 from sailforce.fem.response import member_stresses, simulate
@@ -306,3 +308,30 @@ def test_one_joint_spring_spans_pin_to_bonded_at_that_joint(joint):
     stiff = at("spring", 1e9)  # 1e9 N m/rad against links of EI/L ~ 1e3: a relative gap ~1e-6
     np.testing.assert_allclose(stiff, bonded, rtol=0, atol=1e-4 * np.abs(bonded).max())
     assert Joints("bonded", **{joint: Joint("spring", 1.0)}).label.count("bonded") == 2
+
+
+# --- the load cell's compliance models (issue 12) ---------------------------------------------------------------
+
+
+def test_the_flexibility_element_is_the_timoshenko_element_for_a_timoshenko_cantilever():
+    """k = H^T C^-1 H with C = [[L^3/3EI + L/kGA, L^2/2EI], [L^2/2EI, L/EI]] is Przemieniecki's exact element."""
+    EA, EI, kGA, L = 2.0e7, 35.0, 4.0e6, 0.04
+    flexibility = [[L**3 / (3 * EI) + L / kGA, L**2 / (2 * EI)], [L**2 / (2 * EI), L / EI]]
+    expected = local_stiffness(EA, EI, L, shear_parameter(EI, kGA, L))
+    np.testing.assert_allclose(flexibility_stiffness(EA, L, flexibility), expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+
+
+def test_a_matrix_compliance_equal_to_the_datasheet_beam_gives_the_same_arm():
+    datasheet = Robot().with_joints("bonded")
+    vv, vm, mm = datasheet.loadcell.flexibility[[0, 0, 1], [0, 1, 1]]
+    as_matrix = replace(datasheet, loadcell=replace(datasheet.loadcell, compliance="matrix", compliance_vv=vv,
+                                                    compliance_vm=vm, compliance_mm=mm))  # fmt: skip
+    theta1, theta2 = np.radians([60.0, 100.0, 140.0]), np.radians([0.0, -10.0, 20.0])
+    a, b = simulate(datasheet, theta1, theta2), simulate(as_matrix, theta1, theta2)
+    np.testing.assert_allclose(b.deflection, a.deflection, rtol=1e-9, atol=1e-9 * np.abs(a.deflection).max())
+
+
+def test_the_block_compliance_is_the_solid_blocks_own_bending_stiffness():
+    cell = replace(LoadCell(), compliance="block")
+    assert cell.bending_rigidity == pytest.approx(cell.material.E * cell.block.thickness * cell.block.depth**3 / 12)
+    assert cell.bending_rigidity > 10 * LoadCell().bending_rigidity  # the hollowed cell is far softer than its block

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import re
+
+import numpy as np
 import pytest
 
 from sailforce import Arm, GeometryError, RobotFileError
-from sailforce.io.robotfile import load_arm, load_robot_file, template, write_template
+from sailforce.io.robotfile import load_arm, load_robot_file, robot_data, robot_from_data, template, write_template
+from sailforce.io.robotkeys import get_key, robot_keys, with_keys
+from sailforce.robot import Joint, Joints, Robot
 
 
 def test_template_round_trips_to_the_default_arm(tmp_path):
@@ -155,3 +160,48 @@ def test_bad_per_joint_tables_are_refused(tmp_path, extra, message):
     with pytest.raises(RobotFileError, match=message) as info:
         load_robot_file(path)
     assert str(path) in str(info.value)
+
+
+# --- robot-file keys as dotted paths (identify's parameters, design's sweeps) ----------------------------------
+
+
+def test_robot_data_round_trips_at_full_precision():
+    robot = Robot(joints=Joints("spring", 123.456789012345, P2=Joint("bonded", 1.0)))
+    assert robot_from_data(robot_data(robot)) == robot
+
+
+def test_with_keys_sets_one_value_and_keeps_the_parallelogram():
+    robot = with_keys(Robot(), {"links.l2": 0.25, "joints.P1.stiffness": 170.0, "loadcells.crosstalk_axial": 0.02})
+    assert (robot.arm.l2, robot.arm.l4) == (0.25, 0.25)
+    assert robot.joints.P1 == Joint("pin", 170.0) and robot.joints.P2 is None  # P1 starts from the shared joint
+    assert get_key(robot, "joints.P1.stiffness") == 170.0 and get_key(robot, "joints.P3.stiffness") == 50.0
+    assert robot.loadcell.crosstalk_axial == 0.02
+    assert "joints.P3.stiffness" in robot_keys(Robot(), numeric=True) and "joints.model" not in robot_keys(Robot(), numeric=True)
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"links.l5": 0.1}, "unknown robot key 'links.l5': expected one of links.l1"),
+        ({"loadcells.position": 2.0}, "position = 2.0 must lie strictly between 0 and 1"),
+        ({"joints.P1.model": "weld"}, "'weld': expected one of pin, bonded, spring"),
+        ({"links": 0.3}, "unknown robot key 'links'"),
+    ],
+)
+def test_with_keys_refuses_unknown_keys_and_bad_values_by_name(values, message):
+    with pytest.raises(RobotFileError, match=re.escape(message)):
+        with_keys(Robot(), values)
+
+
+def test_the_cell_compliance_models_read_from_a_file(tmp_path):
+    path = tmp_path / "r.toml"
+    path.write_text('[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[loadcells]\ncompliance = "matrix"\n'
+                    "compliance_vv = 2e-6\ncompliance_vm = 5e-5\ncompliance_mm = 2e-3\n")  # fmt: skip
+    cell = load_robot_file(path).robot.loadcell
+    np.testing.assert_array_equal(cell.flexibility, [[2e-6, 5e-5], [5e-5, 2e-3]])
+    path.write_text(path.read_text().replace("compliance_mm = 2e-3", "compliance_mm = 1e-3"))
+    with pytest.raises(RobotFileError, match="not positive definite"):
+        load_robot_file(path)
+    path.write_text(path.read_text().replace('"matrix"', "3"))
+    with pytest.raises(RobotFileError, match=re.escape("[loadcells] compliance = 3: expected a quoted name")):
+        load_robot_file(path)

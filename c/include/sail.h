@@ -65,9 +65,10 @@ enum {
 /* 0.01 deg [rad]: sailforce.calibration.estimator.DELTA_RANGE_SLACK. */
 #define SAIL_DELTA_RANGE_SLACK 1.7453292519943296e-4
 
-/* Polynomial terms per series: Chebyshev order <= 8 (matrix model) and
- * power-series order <= 8 (seed model). */
-#define SAIL_MAX_TERMS 9
+/* Polynomial terms per series: Chebyshev order <= 23 (matrix model; a physics
+ * calibration's map over 15..165 deg needs 15-20) and power-series order <= 23
+ * (seed model). */
+#define SAIL_MAX_TERMS 24
 /* Second-order sections of the low-pass filter: Butterworth order <= 8. */
 #define SAIL_MAX_SECTIONS 4
 

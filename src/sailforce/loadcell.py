@@ -16,6 +16,20 @@ cantilever theory gives delta = F L^3 / (3 E I) + F L / (kappa G A), so
 
 with kappa G A from the solid block (its shear term is ~0.4 % of delta_cap for
 the defaults).  Axial and shear rigidity come from the block.
+
+**Compliance models** (``compliance``, issue 12).  What the frame sees of the
+cell in bending is its 2x2 cantilever flexibility: with the near face clamped,
+a shear V and a moment M at the far face move it by
+
+    (v, r) = C (V, M),   C = [[c_vv, c_vm], [c_vm, c_mm]].
+
+- ``datasheet`` (default): the Timoshenko beam above, E I_eq from the rated deflection;
+- ``block``: the solid block's own E I, as SolidWorks models a cell drawn as a
+  plain 7075 part (the seed's set-up, Sec. 3.2): 46 times stiffer than the datasheet beam for the defaults;
+- ``matrix``: C given outright (``compliance_vv`` [m/N], ``compliance_vm`` [1/N],
+  ``compliance_mm`` [1/(N m)]), measured or taken from a solid model.
+
+For a Timoshenko cantilever C = [[L^3/(3EI) + L/(kGA), L^2/(2EI)], [L^2/(2EI), L/EI]].
 """
 
 from __future__ import annotations
@@ -23,8 +37,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .errors import GeometryError
 from .materials import AL_7075_T6, Material, RectangularSection
+
+#: How the cell's bending compliance is given (module docstring).
+COMPLIANCE_MODELS = ("datasheet", "block", "matrix")
 
 #: Standard gravity [m/s^2] (CGPM 1901), to turn a capacity in kg into newtons.
 STANDARD_GRAVITY = 9.80665
@@ -48,6 +67,10 @@ class LoadCell:
     rated_output_mV_V: float = 2.0  #: bridge output at capacity [mV/V]
     crosstalk_axial: float = 0.0  #: output per rated output, per unit N / F_cap
     crosstalk_moment: float = 0.0  #: output per rated output, per unit M / (F_cap L)
+    compliance: str = "datasheet"  #: one of :data:`COMPLIANCE_MODELS`
+    compliance_vv: float = 0.0  #: [m/N] far-face deflection per shear (``matrix`` only)
+    compliance_vm: float = 0.0  #: [1/N] far-face deflection per moment = rotation per shear (``matrix`` only)
+    compliance_mm: float = 0.0  #: [1/(N m)] far-face rotation per moment (``matrix`` only)
 
     def __post_init__(self) -> None:
         for name in ("capacity_kg", "rated_deflection", "length", "rated_output_mV_V"):
@@ -59,6 +82,17 @@ class LoadCell:
         for name in ("crosstalk_axial", "crosstalk_moment"):
             if not math.isfinite(getattr(self, name)):
                 raise GeometryError(f"load cell {name} must be finite")
+        if self.compliance not in COMPLIANCE_MODELS:
+            raise GeometryError(f"load cell compliance = {self.compliance!r}: expected one of {', '.join(COMPLIANCE_MODELS)}")
+        for name in ("compliance_vv", "compliance_vm", "compliance_mm"):
+            if not (isinstance(getattr(self, name), (int, float)) and math.isfinite(getattr(self, name))):
+                raise GeometryError(f"load cell {name} = {getattr(self, name)!r} must be a finite number")
+        vv, vm, mm = self.compliance_vv, self.compliance_vm, self.compliance_mm
+        if self.compliance == "matrix" and not (vv > 0 and mm > 0 and vv * mm > vm * vm):
+            raise GeometryError(
+                f"load cell compliance matrix [[{vv:g}, {vm:g}], [{vm:g}, {mm:g}]] is not positive definite: "
+                "it needs compliance_vv > 0, compliance_mm > 0 and compliance_vv x compliance_mm > compliance_vm^2"
+            )
         if self.rated_deflection <= self.shear_deflection_at_capacity:
             raise GeometryError(
                 f"load cell rated deflection {self.rated_deflection:g} m is not larger than the block's own "
@@ -82,9 +116,22 @@ class LoadCell:
 
     @property
     def bending_rigidity(self) -> float:
-        """E I_eq [N m^2], calibrated to the rated deflection (module docstring)."""
+        """The beam's E I [N m^2]: calibrated to the rated deflection, the block's own, or L / c_mm (module docstring)."""
+        if self.compliance == "block":
+            return self.material.E * self.block.second_moment
+        if self.compliance == "matrix":
+            return self.length / self.compliance_mm
         bending_part = self.rated_deflection - self.shear_deflection_at_capacity
         return self.capacity_N * self.length**3 / (3.0 * bending_part)
+
+    @property
+    def flexibility(self) -> np.ndarray:
+        """C, the far face's (v, r) per (V, M) with the near face clamped, ``(2, 2)`` (module docstring)."""
+        if self.compliance == "matrix":
+            vv, vm, mm = self.compliance_vv, self.compliance_vm, self.compliance_mm
+            return np.array([[vv, vm], [vm, mm]])
+        L, EI = self.length, self.bending_rigidity
+        return np.array([[L**3 / (3.0 * EI) + L / self.shear_rigidity, L**2 / (2.0 * EI)], [L**2 / (2.0 * EI), L / EI]])
 
     @property
     def axial_rigidity(self) -> float:

@@ -21,7 +21,7 @@ from .file import Calibration
 from .filters import LowPass
 
 #: ``SAIL_MAX_TERMS`` in sail.h: coefficients per series (Chebyshev or power).
-MAX_TERMS = 9
+MAX_TERMS = 24
 #: ``SAIL_MAX_SECTIONS`` in sail.h: second-order sections (Butterworth order <= 8).
 MAX_SECTIONS = 4
 #: ``SAIL_MAX_HALF_WINDOW`` in sail.h: half the rate window, in samples.

@@ -13,9 +13,13 @@ to a rotation by theta2.  Two forms of M are fitted (``--model``):
   per-pose sinusoid rows; needs several force directions at each pose;
 - ``matrix``: C(delta) J^T as Chebyshev series
   (:class:`~sailforce.calibration.compensation.MatrixCompensator`), fitted on all samples;
-- ``auto``: whichever cross-validates better.
+- ``physics``: the robot's frame model with fitted gains, offsets and joint
+  stiffnesses (:mod:`sailforce.calibration.physics`), stored as a matrix model
+  over the whole map range; needs the robot;
+- ``auto``: whichever cross-validates best.
 
-Offsets come from the matrix fit (jointly with the map), for both kinds.
+Offsets come from the matrix fit (jointly with the map) for seed and matrix,
+from the physics fit for physics.
 Cross-validation always scores the force-vector RMSE [N] on held-out deltas.
 The calibration file format lives in :mod:`sailforce.calibration.file`; the per-row
 estimator with statuses in :mod:`sailforce.calibration.estimator`.
@@ -24,11 +28,13 @@ estimator with statuses in :mod:`sailforce.calibration.estimator`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from .._validate import as_float_arrays
 from ..arm import Arm
+from ..robot import Robot
 from .compensation import (
     CV_FOLDS,
     CV_TIE_ATOL_N,
@@ -43,7 +49,7 @@ from .compensation import (
 )
 from .regressors import fit_polynomial
 
-MODEL_KINDS = ("seed", "matrix")
+MODEL_KINDS = ("seed", "matrix", "physics")
 
 #: A calibration must span at least this range of delta [rad]: over less, the
 #: delta dependence cannot be separated from noise (a sixth of the seed's 105 deg).
@@ -63,20 +69,34 @@ class FitReport:
     cv_rmse_by_kind: dict[str, float]
     n_samples: int
     n_deltas: int
-    delta_range: tuple[float, float]  #: [rad]
+    delta_range: tuple[float, float]  #: [rad] of the data
+    physics: Any = None  #: the :class:`~sailforce.calibration.physics.PhysicsFit`, when one was made
+
+    @property
+    def model_delta_range(self) -> tuple[float, float]:
+        """The delta range [rad] the chosen model is valid over: the physics map's, or the data's."""
+        if self.kind == "physics" and self.physics is not None:
+            return self.physics.compensator.delta_range
+        return self.delta_range
 
 
-def fit_calibration(arm: Arm, theta1, theta2, fx, fy, load1, load2, *, kind: str = "auto"):
-    """Fit offsets and a sensing map of ``kind`` (seed | matrix | auto) to samples.
+def fit_calibration(arm: Arm, theta1, theta2, fx, fy, load1, load2, *, kind: str = "auto", robot: Robot | None = None,
+                    free: tuple[str, ...] | None = None, transduction: str | None = None, progress=None):  # fmt: skip
+    """Fit offsets and a sensing map of ``kind`` (seed | matrix | physics | auto) to samples.
 
     Angles [rad], forces [N], loads raw.  Returns ``(model, offsets, report)``.
+    ``physics`` (and ``auto`` with it) needs ``robot``; ``free`` and
+    ``transduction`` override :mod:`sailforce.calibration.physics`'s defaults and
+    ``progress(done, total)`` follows its starts.
     Raises :class:`CompensationError`, saying what to record, on data that
     cannot determine the map: too few distinct deltas, a delta span below
     :data:`MIN_DELTA_SPAN`, collinear forces, or (seed) poses with one
     force direction.
     """
     if kind not in (*MODEL_KINDS, "auto"):
-        raise CompensationError(f"model = {kind!r}: expected seed, matrix or auto")
+        raise CompensationError(f"model = {kind!r}: expected seed, matrix, physics or auto")
+    if kind == "physics" and robot is None:
+        raise CompensationError("the physics model needs the robot: give its robot file")
     theta1, theta2, fx, fy, load1, load2 = (np.ravel(a) for a in as_float_arrays(
         theta1=theta1, theta2=theta2, fx=fx, fy=fy, load1=load1, load2=load2))  # fmt: skip
     delta = theta1 - theta2
@@ -87,19 +107,28 @@ def fit_calibration(arm: Arm, theta1, theta2, fx, fy, load1, load2, *, kind: str
             "needed to fit the delta dependence: record poses with more varied theta1 - theta2"
         )
     matrix, offsets = fit_matrix_with_offsets(arm, theta1, theta2, fx, fy, load1, load2)
-    candidates: dict[str, tuple] = {"matrix": (matrix, min(matrix.cv_rmse))}
+    candidates: dict[str, tuple] = {"matrix": (matrix, min(matrix.cv_rmse), offsets)}
     if kind in ("seed", "auto"):
         try:
-            candidates["seed"] = _fit_seed(arm, theta1, theta2, fx, fy, load1 - offsets[0], load2 - offsets[1])
+            seed = _fit_seed(arm, theta1, theta2, fx, fy, load1 - offsets[0], load2 - offsets[1])
+            candidates["seed"] = (*seed, offsets)
         except CompensationError:
             if kind == "seed":
                 raise
+    physics = None
+    if robot is not None and kind in ("physics", "auto"):
+        from .physics import DEFAULT_FREE, DEFAULT_TRANSDUCTION, fit_physics
+
+        physics = fit_physics(robot, theta1, theta2, fx, fy, load1, load2, free=free or DEFAULT_FREE,
+                              transduction=transduction or DEFAULT_TRANSDUCTION, progress=progress)  # fmt: skip
+        candidates["physics"] = (physics.compensator, physics.cv_rmse_N, physics.offsets)
     chosen = kind if kind != "auto" else min(candidates, key=lambda k: candidates[k][1])
-    model, cv = candidates[chosen]
+    model, cv, offsets = candidates[chosen]
     fx_hat, fy_hat = estimate_force(model, theta1, theta2, load1 - offsets[0], load2 - offsets[1])
     fit_rmse = float(np.sqrt(np.mean((fx_hat - fx) ** 2 + (fy_hat - fy) ** 2)))
     report = FitReport(chosen, fit_rmse, float(cv), {k: float(v[1]) for k, v in candidates.items()},
-                       int(theta1.size), int(delta_groups(delta).max() + 1), (float(delta.min()), float(delta.max())))  # fmt: skip
+                       int(theta1.size), int(delta_groups(delta).max() + 1), (float(delta.min()), float(delta.max())),
+                       physics)  # fmt: skip
     return model, offsets, report
 
 

@@ -48,6 +48,7 @@ _COMMAND_MODULES = {
     "estimate": "estimate_cmd",
     "export-c": "export_cmd",
     "fit-poly": "fitpoly_cmd",
+    "identify": "identify_cmd",
     "reproduce": "reproduce_cmd",
     "robot": "robot_cmd",
     "simulate": "simulate_cmd",

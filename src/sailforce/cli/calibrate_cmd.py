@@ -14,10 +14,12 @@ from rich.console import Console
 from ..calibration.file import Calibration
 from ..calibration.fit import MODEL_KINDS, equivalent_capacity, fit_calibration
 from ..errors import SailError
+from ..fem.response import TRANSDUCTIONS
 from ..io.files import check_output
 from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, TableError, read_all
 from . import cli
 from ._options import load_robot, robot_option
+from ._progress import progress_bar
 
 #: ``sail tare`` warns when the no-load readings scatter by more than this
 #: fraction of the cell's capacity (standard deviation): the arm was touched,
@@ -83,7 +85,15 @@ def _parse_capacity(ctx, param, value):
 @robot_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Calibration JSON to write.")
 @click.option("--model", "kind", type=click.Choice((*MODEL_KINDS, "auto")), default="auto", show_default=True,
-              help="seed: amplitude/phase polynomials per cell; matrix: C(Δ)·Jᵀ Chebyshev map; auto: the better cross-validated.")
+              help="seed: amplitude/phase polynomials per cell; matrix: C(Δ)·Jᵀ Chebyshev map; physics: the robot's "
+              "frame model with fitted gains, offsets and joint stiffnesses; auto: the best cross-validated.")
+@click.option("--free", "free", default=None, metavar="KEY,KEY,...",
+              help="physics: the robot-file keys to fit besides offsets and gains. "
+              "Default: joints.P1.stiffness,joints.P2.stiffness,joints.P3.stiffness.")
+@click.option("--transduction", type=click.Choice(TRANSDUCTIONS), default=None,
+              help="physics: what the cells read, the bridge (shear, with crosstalk) or the far face's deflection. "
+              "Default: bridge.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @click.option("--capacity", callback=_parse_capacity, default=None, metavar="RAW1,RAW2",
               help="Raw reading (offset removed) at each cell's capacity. Default: estimated from the robot's load-cell rating.")
 @click.option("--load-unit", default="raw", show_default=True, help="Label of the load columns' unit, stored in the file.")
@@ -92,35 +102,51 @@ def _parse_capacity(ctx, param, value):
               "theta2_deg, load1, load2): identifies the inertial and gravity loads to subtract while moving.")
 @click.option("--dynamics", type=click.Choice(("prior", "none")), default=None,
               help="Without --free-motion: store the robot file's predicted dynamic term, or none (the default).")
-def calibrate_command(data, robot_path, output, kind, capacity, load_unit, free_motion, dynamics):
+def calibrate_command(data, robot_path, output, kind, free, transduction, quiet, capacity, load_unit, free_motion, dynamics):
     """Fit offsets and the sensing map from DATA.csv (or .parquet) with reference forces.
 
     DATA has the columns theta1_deg, theta2_deg, load1, load2 (raw readings
     in any linear unit) and fx_N, fy_N (the applied force); other columns are
     ignored.  Record several force directions at each of several poses
     spanning the Δ = θ1 − θ2 range the robot will use.
+
+    With --model physics (and auto, which tries it), the robot's frame model
+    is fitted and stored as a matrix model over Δ = 15…165° (or the data's
+    range, if wider): physics extrapolates beyond the calibrated range where
+    its structure is right, and cross-validation keeps auto from choosing it
+    where it is not.
     """
     robot = load_robot(robot_path)
+    free_keys = tuple(k.strip() for k in free.split(",") if k.strip()) if free else None
+    if (free_keys or transduction) and kind not in ("physics", "auto"):
+        raise click.UsageError("--free and --transduction set up the physics model: use them with --model physics or auto")
     check_output(output, {"the calibration data": data, "the --robot file": robot_path, "the --free-motion recording": free_motion})
     if free_motion is not None and dynamics is not None:
         raise click.UsageError("--dynamics chooses a dynamic term without --free-motion; give one or the other")
     values = _clean_rows(data, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
-    model, offsets, report = fit_calibration(robot.arm, theta1, theta2, values["fx_N"], values["fy_N"],
-                                             values["load1"], values["load2"], kind=kind)  # fmt: skip
+    console = Console()
+    physics = kind in ("physics", "auto")
+    with progress_bar(console, "fitting the physics model", None, unit="starts", quiet=quiet or not physics) as advance:
+        model, offsets, report = fit_calibration(
+            robot.arm, theta1, theta2, values["fx_N"], values["fy_N"], values["load1"], values["load2"], kind=kind,
+            robot=robot, free=free_keys, transduction=transduction, progress=lambda done, total: advance(1))  # fmt: skip
+    if report.physics is not None:
+        _print_physics(console, report.physics)
     if capacity is None:
         capacity = tuple(equivalent_capacity(model, robot.arm, robot.loadcell.capacity_N, report.delta_range))
     loads = [values["load1"], values["load2"]]
     cal = Calibration(
         arm=robot.arm, model=model, offsets=tuple(map(float, offsets)), capacity=tuple(map(float, capacity)),
-        delta_range=report.delta_range, load_range=tuple((float(v.min()), float(v.max())) for v in loads),
+        delta_range=report.model_delta_range, load_range=tuple((float(v.min()), float(v.max())) for v in loads),
         load_unit=load_unit,
         metrics={"fit_rmse_N": report.fit_rmse_N, "cv_rmse_N": report.cv_rmse_N,
                  "cv_rmse_by_model_N": report.cv_rmse_by_kind, "n_samples": report.n_samples,
-                 "n_deltas": report.n_deltas, "model_selection": kind},
+                 "n_deltas": report.n_deltas, "model_selection": kind,
+                 "data_delta_range_deg": [float(v) for v in np.degrees(report.delta_range)],
+                 **({"physics": _physics_metrics(report.physics)} if report.physics is not None else {})},
         data_sha256=_sha256(data),
     )  # fmt: skip
-    console = Console()
     if free_motion is not None:
         cal = _identify(console, cal, robot, free_motion)
     elif dynamics == "prior":
@@ -134,6 +160,33 @@ def calibrate_command(data, robot_path, output, kind, capacity, load_unit, free_
                   f"{report.n_deltas} Δ values, Δ = {low:.4g}…{high:.4g}°")  # fmt: skip
     console.print(f"force RMSE: fit {report.fit_rmse_N:.4g} N, cross-validated {report.cv_rmse_N:.4g} N ({scores})")
     console.print(f"offsets {offsets[0]:.6g}, {offsets[1]:.6g} {load_unit}; capacity ±{capacity[0]:.4g}, ±{capacity[1]:.4g} {load_unit}")
+
+
+def _physics_metrics(physics) -> dict:
+    """What the calibration file records of a physics fit: each parameter with its standard error."""
+    fit = physics.identification
+    return {"parameters": {name: {"value": float(v), "standard_error": float(se), "identifiable": bool(ok)}
+                           for name, v, se, ok in zip(fit.names, fit.values, fit.standard_errors, fit.identifiable)},
+            "cv_rmse_N": physics.cv_rmse_N, "map_order": physics.compensator.order, "map_error": physics.map_error}  # fmt: skip
+
+
+def _print_physics(console: Console, physics) -> None:
+    from rich.table import Table
+
+    fit = physics.identification
+    table = Table(title="physics model: identified parameters (± 1 standard error)")
+    for head in ("parameter", "value", "± SE", "identifiable"):
+        table.add_column(head, justify="left" if head == "parameter" else "right")
+    for name, value, se, ok in zip(fit.names, fit.values, fit.standard_errors, fit.identifiable):
+        table.add_row(name, f"{value:.6g}", f"{se:.3g}", "yes" if ok else "[yellow]no[/yellow]")
+    console.print(table)
+    console.print(f"physics map stored as Chebyshev order {physics.compensator.order} over Δ = "
+                  f"{np.degrees(physics.compensator.delta_range[0]):.4g}…{np.degrees(physics.compensator.delta_range[1]):.4g}° "
+                  f"(within {physics.map_error:.2g} of the fitted map)", highlight=False)  # fmt: skip
+    at_bound = fit.at_bound()
+    if at_bound:
+        console.print(f"[yellow]note:[/yellow] {', '.join(at_bound)} ended on a bound: the data push it beyond the "
+                      "range allowed (a stiffness at 0.01 is a pin, at 1e7 a bonded joint)")  # fmt: skip
 
 
 def _identify(console: Console, cal: Calibration, robot, free_motion: Path) -> Calibration:

@@ -48,6 +48,24 @@ def local_stiffness(EA, EI, L, phi) -> np.ndarray:
     return k
 
 
+def flexibility_stiffness(EA, L, flexibility) -> np.ndarray:
+    """Local 6x6 stiffness of a member given by its cantilever flexibility, shape ``(6, 6)``.
+
+    ``flexibility`` C (2x2) maps the shear and moment at node j to the
+    transverse displacement and rotation of j relative to a clamped node i.
+    Those relative motions are d = H q with H = [[-1, -L, 1, 0], [0, -1, 0, 1]]
+    on (v_i, r_i, v_j, r_j); equilibrium gives the end forces H^T C^-1 d, so
+    k = H^T C^-1 H (the flexibility method; Przemieniecki 1968, Sec. 6.2).
+    For a Timoshenko cantilever's C it is :func:`local_stiffness` exactly.
+    """
+    h = np.array([[-1.0, -L, 1.0, 0.0], [0.0, -1.0, 0.0, 1.0]])
+    bending = h.T @ np.linalg.solve(np.asarray(flexibility, dtype=float), h)
+    k = np.zeros((6, 6))
+    k[np.ix_([0, 3], [0, 3])] = EA / L * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    k[np.ix_([1, 2, 4, 5], [1, 2, 4, 5])] = bending
+    return k
+
+
 def rotation(cos, sin) -> np.ndarray:
     """Transformation T with u_local = T u_global, shape ``(..., 6, 6)``.
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..robot import JOINT_NAMES, Robot
-from .elements import local_stiffness, shear_parameter
+from .elements import flexibility_stiffness, local_stiffness, shear_parameter
 from .frame import GROUND, Frame, make_frame
 
 NODES = ("B1", "B2", "C1a", "C1b", "P1", "C2a", "C2b", "P2", "P3", "A")
@@ -151,6 +151,9 @@ def build_model(robot: Robot, *, shear_deformation: bool = True) -> ArmModel:
     lengths = member_lengths(robot)
     EA, EI, kGA = _rigidities(robot, shear_deformation)
     local_k = local_stiffness(EA, EI, lengths, shear_parameter(EI, kGA, lengths))
+    if robot.loadcell.compliance == "matrix":  # the cell as its measured 2x2 cantilever flexibility
+        for member in LOADCELL_MEMBERS:
+            local_k[member] = flexibility_stiffness(EA[member], lengths[member], robot.loadcell.flexibility)
     frame = make_frame(n_dofs, 2, element_dofs, MEMBER_AXIS, local_k, fixed, springs, spring_k)
     return ArmModel(robot, frame, lengths, _member_offsets(lengths), dof, shear_deformation)
 

@@ -21,7 +21,10 @@ from ..robot import JOINT_NAMES, Joint, Joints, Robot
 LINK_KEYS = ("l1", "l2", "l3", "l4")
 MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
 LOADCELL_KEYS = ("capacity_kg", "rated_deflection", "length", "position", "depth", "thickness",
-                 "rated_output_mV_V", "crosstalk_axial", "crosstalk_moment")  # fmt: skip
+                 "rated_output_mV_V", "crosstalk_axial", "crosstalk_moment",
+                 "compliance", "compliance_vv", "compliance_vm", "compliance_mm")  # fmt: skip
+#: Keys whose value is a quoted name rather than a number.
+NAME_KEYS = ("model", "compliance")
 #: Each optional section and the keys it may hold; ``links`` is required.
 SECTIONS = {
     "links": LINK_KEYS,
@@ -84,6 +87,11 @@ thickness = {cell_thickness:g}
 rated_output_mV_V = {rated_output:g}    # bridge output at capacity
 crosstalk_axial = {xa:g}       # bridge output per rated output, per unit (axial force / capacity)
 crosstalk_moment = {xm:g}      # ... per unit (moment / (capacity x length))
+compliance = "{compliance}"  # bending compliance: "datasheet" (beam fitted to rated_deflection), "block" (the solid
+                        # block's own E I, as a SolidWorks part) or "matrix" (the three entries below)
+compliance_vv = {cvv:g}         # m/N, far-face deflection per shear, near face clamped ("matrix" only)
+compliance_vm = {cvm:g}         # 1/N, far-face deflection per moment = rotation per shear
+compliance_mm = {cmm:g}         # 1/(N m), far-face rotation per moment
 
 [joints]            # the passive joints P1, P2, P3
 model = "{joints}"       # "pin" (ideal revolute), "bonded" (rigid, SolidWorks' default contact) or "spring"
@@ -131,6 +139,7 @@ def template(robot: Robot | None = None) -> str:
         capacity_kg=cell.capacity_kg, rated_deflection=cell.rated_deflection, length=cell.length,
         position=cell.position, cell_depth=cell.block.depth, cell_thickness=cell.block.thickness,
         rated_output=cell.rated_output_mV_V, xa=cell.crosstalk_axial, xm=cell.crosstalk_moment,
+        compliance=cell.compliance, cvv=cell.compliance_vv, cvm=cell.compliance_vm, cmm=cell.compliance_mm,
         joints=r.joints.model, joint_k=r.joints.stiffness, joint_overrides=_joint_overrides(r.joints),
         motors=r.motors.model, motor_k=r.motors.stiffness,
         handle_mass=r.handle.mass, handle_position=r.handle.position, tilt=r.plane.tilt_deg, axis=r.plane.axis_deg,
@@ -179,6 +188,12 @@ def load_robot_file(path: str | Path) -> RobotFile:
         raise RobotFileError(f"{path}: not a text file (byte {exc.start} is not UTF-8); expected a TOML robot file") from None
     except tomllib.TOMLDecodeError as exc:
         raise RobotFileError(f"{path}: not valid TOML: {exc}") from None
+    return RobotFile(path=path, robot=robot_from_data(data, path))
+
+
+def robot_from_data(data: dict[str, Any], source: str | Path = "<robot>") -> Robot:
+    """The :class:`Robot` of a robot file's parsed TOML ``data``; errors name ``source`` and the key."""
+    path = Path(source)
     unknown = sorted(set(data) - set(KNOWN_SECTIONS))
     if unknown:
         raise RobotFileError(
@@ -186,10 +201,31 @@ def load_robot_file(path: str | Path) -> RobotFile:
         )
     arm = _parse_links(path, data)
     try:
-        robot = _parse_structure(path, data, arm)
+        return _parse_structure(path, data, arm)
     except GeometryError as exc:
         raise RobotFileError(f"{path}: {exc}") from None
-    return RobotFile(path=path, robot=robot)
+
+
+def robot_data(robot: Robot) -> dict[str, Any]:
+    """The robot file's tables for ``robot`` at full precision: :func:`robot_from_data` inverts it."""
+    cell, arm = robot.loadcell, robot.arm
+    material = lambda m: {"E": m.E, "nu": m.nu, "rho": m.rho, "yield_strength": m.yield_strength}
+    joints: dict[str, Any] = {"model": robot.joints.model, "stiffness": robot.joints.stiffness}
+    for name in JOINT_NAMES:
+        own = getattr(robot.joints, name)
+        if own is not None:
+            joints[name] = {"model": own.model, "stiffness": own.stiffness}
+    return {
+        "links": {"l1": arm.l1, "l2": arm.l2, "l3": arm.l3, "l4": arm.l4},
+        "sections": {"depth": robot.link_section.depth, "thickness": robot.link_section.thickness},
+        "materials": {"links": material(robot.link_material), "loadcells": material(cell.material)},
+        "loadcells": {**{key: getattr(cell, key) for key in LOADCELL_KEYS if key not in ("depth", "thickness")},
+                      "depth": cell.block.depth, "thickness": cell.block.thickness},
+        "joints": joints,
+        "motors": {"model": robot.motors.model, "stiffness": robot.motors.stiffness},
+        "handle": {"mass": robot.handle.mass, "position": robot.handle.position},
+        "plane": {"tilt_deg": robot.plane.tilt_deg, "axis_deg": robot.plane.axis_deg},
+    }  # fmt: skip
 
 
 def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | None = None, *,
@@ -204,7 +240,7 @@ def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | 
     if extra:
         raise RobotFileError(f"{path}: [{name}] has unknown key(s) {', '.join(extra)}; expected {', '.join(allowed)}")
     for key, value in table.items():
-        if key == "model" or isinstance(value, dict):
+        if key in NAME_KEYS or isinstance(value, dict):
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise RobotFileError(f"{path}: [{name}] {key} = {value!r}: expected a number")
@@ -224,9 +260,11 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
     plane = _table(path, data, "plane")
     per_joint = {name: _table(path, joints, name, ("model", "stiffness"), parent="joints") for name in JOINT_NAMES if name in joints}
     shared = {k: v for k, v in joints.items() if k not in JOINT_NAMES}
-    for name, table in (("joints", shared), ("motors", motors), *((f"joints.{n}", j) for n, j in per_joint.items())):
-        if "model" in table and not isinstance(table["model"], str):
-            raise RobotFileError(f"{path}: [{name}] model = {table['model']!r}: expected a quoted name")
+    for name, table in (("joints", shared), ("motors", motors), ("loadcells", cells),
+                        *((f"joints.{n}", j) for n, j in per_joint.items())):  # fmt: skip
+        for key in NAME_KEYS:
+            if key in table and not isinstance(table[key], str):
+                raise RobotFileError(f"{path}: [{name}] {key} = {table[key]!r}: expected a quoted name")
 
     cell_default = default.loadcell
     cell_block = RectangularSection(
