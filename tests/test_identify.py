@@ -36,10 +36,10 @@ def test_three_joint_stiffnesses_are_recovered_but_flagged_as_correlated():
 
 
 def test_a_parameter_the_data_cannot_see_is_flagged():
-    """With bonded joints the spring stiffness changes nothing: its Jacobian column is zero."""
-    bonded = Robot().with_joints("bonded")
-    fit = identify_table4(bonded, table4(bonded), ["joints.stiffness"], starts=1)
-    assert not fit.identifiable[0]
+    """With locked motors the gearbox stiffness changes nothing: its Jacobian column is zero."""
+    robot = Robot().with_joints("spring")
+    fit = identify_table4(robot, table4(robot), ["motors.stiffness"], starts=1)
+    assert not fit.identifiable[0] and np.isnan(fit.collinearity[0])
 
 
 def test_unknown_parameters_and_grids_are_refused():

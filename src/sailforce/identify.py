@@ -59,8 +59,10 @@ LENGTH_FACTOR = 2.0
 SCALE_FACTOR = 10.0
 #: Bounds of the crosstalk coefficients (output per rated output, per unit normalised load).
 CROSSTALK_BOUNDS = (-0.5, 0.5)
-#: Bounds of the cell's position along its link (fraction of the link from B).
+#: Bounds of the cell's position along its link (fraction of the link from B) ...
 POSITION_BOUNDS = (0.05, 0.95)
+#: ... narrowed so that the gap's centre stays this many half-gap lengths from either end of the shorter link.
+POSITION_MARGIN = 1.05
 #: A multiple correlation above this, or a relative standard error above 1, marks a parameter as not identifiable.
 CORRELATION_LIMIT = 0.99
 #: A Jacobian column below this (relative to the largest) means the data do not see the parameter at all.
@@ -72,8 +74,9 @@ MAX_STARTS = 16
 #: Solver tolerances (scipy's xtol, ftol, gtol) of the polish from the best start: far below any
 #: measurement's resolution ...
 SOLVER_TOL = 1e-12
-#: ... and of each start, which only has to find the right basin.
+#: ... and of each start, which only has to find the right basin: to this tolerance, or within this many evaluations.
 START_TOL = 1e-6
+START_MAX_NFEV = 30
 #: Keys that do not enter the static sensing map: freeing them is refused.
 STATICALLY_INERT = ("rho", "yield_strength", "handle.", "plane.", "links.l4")
 #: More distinct deltas than this in a readings target: interpolate the frame's map on Chebyshev nodes.
@@ -123,8 +126,9 @@ def parameter(robot: Robot, key: str, bounds: tuple[float, float] | None = None)
         default = STIFFNESS_BOUNDS
     elif key.startswith("links.") or key.startswith("sections.") or name in ("length", "depth", "thickness"):
         default, log = (value / LENGTH_FACTOR, value * LENGTH_FACTOR), False
-    elif name == "position":
-        default, log = POSITION_BOUNDS, False
+    elif name == "position":  # and the cell's gap must stay inside both driven links
+        margin = POSITION_MARGIN * robot.loadcell.length / 2 / min(robot.arm.l1, robot.arm.l2)
+        default, log = (max(POSITION_BOUNDS[0], margin), min(POSITION_BOUNDS[1], 1.0 - margin)), False
     elif name.startswith("crosstalk"):
         default, log = CROSSTALK_BOUNDS, False
     elif name == "compliance_vm":
@@ -251,6 +255,22 @@ class ReadingsTarget:
             raise IdentifyError("a readings target must be finite: remove the rows with NaN or infinity first")
         for name, a in zip(("theta1", "theta2", "fx", "fy", "load1", "load2"), arrays):
             object.__setattr__(self, name, a)
+        # what does not change between evaluations, computed once: the forces in link 2's frame, and the
+        # deltas at which the frame is solved with the matrix that takes the solutions to every row
+        force = (rotation(-self.theta2) @ np.stack([self.fx, self.fy], axis=-1)[..., None])[..., 0]
+        delta = self.delta
+        unique = np.unique(delta)
+        if unique.size <= MAX_EXACT_DELTAS:
+            nodes, weights = unique, None
+            index = np.searchsorted(unique, delta)
+        else:
+            low, high = float(delta.min()), float(delta.max())
+            x_nodes = np.polynomial.chebyshev.chebpts2(INTERPOLATION_NODES)
+            nodes = low + (x_nodes + 1.0) * (high - low) / 2.0
+            to_series = np.linalg.inv(np.polynomial.chebyshev.chebvander(x_nodes, INTERPOLATION_NODES - 1))
+            weights = np.polynomial.chebyshev.chebvander((2.0 * delta - (low + high)) / (high - low), INTERPOLATION_NODES - 1) @ to_series
+            index = None
+        object.__setattr__(self, "_plan", (force, nodes, index, weights))
 
     @property
     def delta(self) -> np.ndarray:
@@ -263,18 +283,9 @@ class ReadingsTarget:
 
     def signals(self, robot: Robot) -> np.ndarray:
         """(n, 2): the frame's signal of each cell for each row's force."""
-        delta = self.delta
-        unique = np.unique(delta)
-        if unique.size <= MAX_EXACT_DELTAS:
-            maps = sensing_map(robot, unique, self.transduction)[np.searchsorted(unique, delta)]
-        else:
-            low, high = float(delta.min()), float(delta.max())
-            nodes = np.polynomial.chebyshev.chebpts2(INTERPOLATION_NODES)
-            values = sensing_map(robot, low + (nodes + 1.0) * (high - low) / 2.0, self.transduction).reshape(-1, 4)
-            series = np.polynomial.chebyshev.chebfit(nodes, values, INTERPOLATION_NODES - 1)
-            x = (2.0 * delta - (low + high)) / (high - low)
-            maps = np.polynomial.chebyshev.chebval(x, series).T.reshape(-1, 2, 2)
-        force = (rotation(-self.theta2) @ np.stack([self.fx, self.fy], axis=-1)[..., None])[..., 0]
+        force, nodes, index, weights = self._plan  # type: ignore[attr-defined]
+        at_nodes = sensing_map(robot, nodes, self.transduction)  # one batched solve
+        maps = at_nodes[index] if weights is None else (weights @ at_nodes.reshape(-1, 4)).reshape(-1, 2, 2)
         return (maps @ force[..., None])[..., 0]
 
     def linear(self, signals: np.ndarray) -> np.ndarray:
@@ -360,7 +371,8 @@ def identify(
 ) -> Identification:
     """Fit the ``free`` robot-file keys of ``robot`` so that its model matches ``target``.
 
-    The other keys keep ``robot``'s values.  Starts: ``robot``'s own values, then
+    The other keys keep ``robot``'s values; a joint whose stiffness is free
+    becomes a spring (:func:`with_free_springs`).  Starts: ``robot``'s own values, then
     a grid of ``starts`` per parameter (:data:`STARTS`), or a Sobol' sample of
     :data:`MAX_STARTS` when that grid is larger.  Each start is solved to
     :data:`START_TOL` and the best polished to :data:`SOLVER_TOL` (unless not
@@ -375,6 +387,7 @@ def identify(
     unknown = sorted(set(bounds) - set(free))
     if unknown:
         raise IdentifyError(f"bounds given for {', '.join(unknown)}, which is not free")
+    robot = with_free_springs(robot, free)
     params = [parameter(robot, key, bounds.get(key)) for key in free]
 
     def robot_at(x: np.ndarray) -> Robot:
@@ -391,7 +404,8 @@ def identify(
     best = None
     for tried, x0 in enumerate(mesh, start=1):
         try:
-            fit = least_squares(residuals, x0, bounds=(low, high), xtol=START_TOL, ftol=START_TOL, gtol=START_TOL)
+            fit = least_squares(residuals, x0, bounds=(low, high), xtol=START_TOL, ftol=START_TOL, gtol=START_TOL,
+                                max_nfev=START_MAX_NFEV)  # fmt: skip
         except RobotFileError:  # a start whose robot is invalid (a cell that no longer fits ...): skip it
             fit = None
         if fit is not None and (best is None or fit.cost < best.cost):
