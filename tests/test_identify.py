@@ -8,7 +8,16 @@ import numpy as np
 import pytest
 
 from sailforce.calibration.physics import fit_physics
-from sailforce.identify import IdentifyError, ReadingsTarget, identify, identify_table4, parameter, with_free_springs, with_parameter
+from sailforce.identify import (
+    Identification,
+    IdentifyError,
+    ReadingsTarget,
+    identify,
+    identify_table4,
+    parameter,
+    with_free_springs,
+    with_parameter,
+)
 from sailforce.robot import Joint, Joints, Robot
 from sailforce.study import table4
 from sailforce.synthetic import NoiseModel, calibration_session
@@ -153,3 +162,12 @@ def test_the_physics_model_needs_the_robot():
     t1, t2, fx, fy, counts, _ = calibration_session(Robot())
     with pytest.raises(CompensationError, match="needs the robot"):
         fit_calibration(Robot().arm, t1, t2, fx, fy, counts[:, 0], counts[:, 1], kind="physics")
+
+
+def test_at_bound_is_judged_relative_to_each_bound():
+    """A stiffness of 2.2 N m/rad is far from a lower bound of 0.01, however wide the range (log-fitted scales)."""
+    fit = Identification(robot=Robot(), names=("k", "kk", "c"), values=np.array([2.23, 0.0100000001, 0.0]),
+                         standard_errors=np.zeros(3), correlation=np.eye(3), identifiable=np.ones(3, bool),
+                         collinearity=np.zeros(3), residuals=np.zeros((1, 1)), residual_columns=("r",), metrics={},
+                         bounds=((0.01, 1e7), (0.01, 1e7), (0.0, 1.0)), starts=1, success=True)  # fmt: skip
+    assert fit.at_bound() == ("kk", "c")

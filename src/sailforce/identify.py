@@ -67,6 +67,8 @@ POSITION_MARGIN = 1.05
 CORRELATION_LIMIT = 0.99
 #: A Jacobian column below this (relative to the largest) means the data do not see the parameter at all.
 INSENSITIVE = 1e-9
+#: A value within this fraction of a bound (of the bound's size) ended on it.
+AT_BOUND_RTOL = 1e-6
 #: Starts per parameter of the multi-start grid, log-spaced (or evenly spaced) across the bounds ...
 STARTS = 4
 #: ... but never more than this many in all: beyond it, a scrambled Sobol' sample of this size.
@@ -348,10 +350,11 @@ class Identification:
         return self.values[[self.names.index("gain1"), self.names.index("gain2")]]
 
     def at_bound(self) -> tuple[str, ...]:
-        """The free keys that ended on (within 1e-6 of) a bound: the data push beyond the range allowed."""
+        """The free keys that ended on a bound (within :data:`AT_BOUND_RTOL` of it): the data push beyond the range allowed."""
         out = []
         for name, value, (low, high) in zip(self.names, self.values, self.bounds):
-            if min(abs(value - low), abs(high - value)) <= 1e-6 * max(abs(low), abs(high)):
+            span = high - low
+            if any(abs(value - b) <= AT_BOUND_RTOL * max(abs(b), AT_BOUND_RTOL * span) for b in (low, high)):
                 out.append(name)
         return tuple(out)
 
