@@ -115,7 +115,41 @@ def test_reproduce_writes_every_output(reproduced):
                  "table4.csv", "results.json", "report.md", "report.html"):  # fmt: skip
         assert (out / name).stat().st_size > 0, name
         assert (out / "pin" / name).exists() or name.startswith("report"), name
+    for name in ("seed_model.json", "seed_model.png"):
+        assert (out / name).stat().st_size > 0 and not (out / "pin" / name).exists(), name
     assert "study" in output and "report" in output
+
+
+def test_reproduce_seed_model_section(reproduced):
+    """Every family fitted, each with parameters within its bounds, residuals row by row, the verdict stated."""
+    from sailforce.seed_model import FAMILIES, TARGET_PHASE_RMS_DEG, TARGET_SHAPE_RMS
+
+    out, _ = reproduced
+    data = json.loads((out / "seed_model.json").read_text())
+    assert [f["family"] for f in data["fits"]] == [f.name for f in FAMILIES]
+    assert data["closest"] in [f.name for f in FAMILIES]
+    for fit in data["fits"]:
+        assert len(fit["residuals"]) == 8 and len(fit["table4"]) == 8
+        for entry in fit["parameters"].values():
+            low, high = entry["bounds"]
+            assert low <= entry["value"] <= high
+        shape_ok = fit["shape_rms"][0] is not None and max(fit["shape_rms"]) <= TARGET_SHAPE_RMS
+        assert fit["meets_targets"] == (max(fit["phase_rms_deg"]) <= TARGET_PHASE_RMS_DEG and shape_ok)
+    assert data["pin_crosstalk"]["a1_corrected_spread"] < 1e-9
+    markdown = (out / "report.md").read_text()
+    section = markdown[markdown.index("## What was the seed's model?"):]
+    verdict = "meet" if any(f["meets_targets"] for f in data["fits"]) else "No family meets both targets"
+    for needle in (verdict, "Three statements, corrected", "convention", "1/(1 − c·cot Δ)", "l3 ≈ 0.51 m",
+                   "l2 ≈ 0.22 m", "Residuals", "seed_model.png"):  # fmt: skip
+        assert needle in section, needle
+
+
+def test_reproduce_without_the_seed_model(tmp_path):
+    result = CliRunner().invoke(cli, ["reproduce", "-o", str(tmp_path), "--dpi", "50", "--compare-joints", "none",
+                                      "--no-seed-model"], catch_exceptions=False)  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert not (tmp_path / "seed_model.json").exists()
+    assert "## What was the seed's model?" not in (tmp_path / "report.md").read_text()
 
 
 def test_reproduce_results_json_schema(reproduced):
@@ -149,7 +183,7 @@ def test_reproduce_table4_csv_matches_json(reproduced):
 def test_report_is_self_contained_and_cites_the_seed(reproduced):
     out, _ = reproduced
     html = (out / "report.html").read_text()
-    assert 'src="fig' not in html and html.count("data:image/png;base64,") == 5
+    assert 'src="fig' not in html and html.count("data:image/png;base64,") == 6
     markdown = (out / "report.md").read_text()
     for needle in ("Errata", "Eq. 10", "919.458", "0.436", "127.5", "pin", "Δ-only", "Beyond the seed"):
         assert needle in markdown, needle

@@ -1,4 +1,4 @@
-"""The seed paper's formulas *as printed*, kept only to compare against.
+"""The seed paper's formulas *as printed*, kept only to compare against, and its published numbers.
 
 Nothing in sailforce computes with these.  They exist so that tests and the
 report can show where the paper goes wrong (docs/errata.md) and so that nobody
@@ -6,6 +6,9 @@ report can show where the paper goes wrong (docs/errata.md) and so that nobody
 """
 
 from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
 
 import numpy as np
 
@@ -30,3 +33,26 @@ def printed_end_effector_force(arm: Links, theta1, theta2, t1, t2) -> tuple[np.n
     t1, t2 = as_float_arrays(t1=t1, t2=t2)
     m = printed_inverse_jt(arm, theta1, theta2)
     return m[..., 0, 0] * t1 + m[..., 0, 1] * t2, m[..., 1, 0] * t1 + m[..., 1, 1] * t2
+
+
+#: The seed's published regressors (Section 3, after Table 4), highest power first.
+SEED_REGRESSORS = {
+    "amplitude_1": (6.836e-06, -0.002404, 0.325, -19.43, 1145.0),
+    "phase_1_deg": (1.33e-07, -4.438e-05, 0.004638, -0.1106, 3.479),
+    "amplitude_2": (1.262e-05, -0.003925, 0.4893, -26.68, 1040.0),
+    "phase_2_deg": (0.0009928, -0.4999, 6.749),
+}
+#: The seed's validation RMSEs (Section 3), torque units, its curves pre-scaled by 740 and 528.
+SEED_RMSE = {"before": {"t1": 0.436, "t2": 0.696, "mean": 0.566}, "after": {"t1": 0.016, "t2": 0.09, "mean": 0.053}}
+SEED_PRESCALE = (740.0, 528.0)
+
+
+def seed_table4() -> np.ndarray:
+    """The seed's Table 4, shipped as ``sailforce/data/seed_table4.csv``: (8, 5), :data:`TABLE4_COLUMNS`."""
+    from .io.files import read_numeric_csv
+    from .study import TABLE4_COLUMNS
+
+    path = files("sailforce") / "data" / "seed_table4.csv"
+    names, table = read_numeric_csv(Path(str(path)))
+    assert tuple(names) == TABLE4_COLUMNS, names
+    return table

@@ -35,15 +35,19 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
 @click.option("--compare-joints", type=click.Choice((*JOINT_MODELS, "none")), default="pin", show_default=True,
               help="A second pass with this joint model, compared in the report (skipped if equal to --joints).")
 @click.option("--dpi", type=click.IntRange(50, 600), default=DEFAULT_DPI, show_default=True, help="Figure resolution.")
-def reproduce_command(output, robot_path, joints, transduction, criterion, threshold, compare_joints, dpi):
+@click.option("--seed-model/--no-seed-model", default=True, show_default=True,
+              help="Fit structure families to the seed's Table 4 (\"What was the seed's model?\", about 40 s).")
+def reproduce_command(output, robot_path, joints, transduction, criterion, threshold, compare_joints, dpi, seed_model):
     """Run the seed's virtual study (docs/errata.md protocol) and write a report.
 
     Stress patterns (Fig. 4), sweeps 1 and 2 (Fig. 5), Table 4 by
     least-squares sinusoid fits, polynomial regressors, validation with the
     compensator (Fig. 6, RMSE before and after), and a better compensator
-    over the whole workspace.  Writes into DIR: fig4_stress.png,
-    fig5_sweeps.png, fig6_compensated.png, table4.png, workspace.png,
-    table4.csv, results.json, report.md and report.html (self-contained).
+    over the whole workspace, and which frame models could have produced the
+    seed's Table 4.  Writes into DIR: fig4_stress.png, fig5_sweeps.png,
+    fig6_compensated.png, table4.png, workspace.png, table4.csv,
+    results.json, seed_model.json, seed_model.png, report.md and
+    report.html (self-contained).
     The comparison pass goes to DIR/<joints>/.
     """
     import sailforce.report  # noqa: F401  (checks the report extra before anything is written)
@@ -56,7 +60,10 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
     study_seconds = 0.0
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn())
     with Progress(*columns, console=console, transient=True) as progress:
-        task = progress.add_task("reproducing", total=3 * len(passes) + 1)
+        from ..seed_model import FAMILIES
+
+        families = len(FAMILIES) if seed_model else 0
+        task = progress.add_task("reproducing", total=3 * len(passes) + 1 + families)
         for k, model in enumerate(passes):
             robot = load_robot(robot_path, model)
             progress.update(task, description=f"study, {model} joints")
@@ -75,10 +82,23 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
             progress.update(task, description=f"figures, {model} joints")
             _write_figures(directory, result, dpi)
             progress.advance(task)
+        seed_fits = None
+        if seed_model:
+            from ..report.seed_model import write_seed_model
+            from ..seed_model import seed_model_study
+
+            def fitting(name: str) -> None:
+                if progress.tasks[0].description.startswith("seed model"):
+                    progress.advance(task)
+                progress.update(task, description=f"seed model: {name}")
+
+            seed_fits = seed_model_study(load_robot(robot_path), results[0].protocol, progress=fitting)
+            progress.advance(task)
+            write_seed_model(output, seed_fits, dpi)
         progress.update(task, description="report")
         from ..report.document import write_report
 
-        write_report(output, results[0], results[1] if len(results) > 1 else None, study_seconds)
+        write_report(output, results[0], results[1] if len(results) > 1 else None, study_seconds, seed_fits)
         progress.advance(task)
 
     _print_summary(console, results, output, study_seconds, time.perf_counter() - started)

@@ -15,6 +15,7 @@ from ..calibration.regressors import fit_polynomial
 from ..io.files import atomic_writer
 from ..kinematics import SINGULAR_SIN_DELTA
 from ..materials import CARBON_STEEL, SEED_TABLE2_SHEAR_MODULUS
+from ..seed_model import SeedModelResult, phase_pattern
 from ..study import ModelId, Protocol, StudyResult, span_deg
 from .labels import model_label
 from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
@@ -99,13 +100,13 @@ def _amplitude_shape(result: StudyResult, seed: np.ndarray) -> str:
         parts.append(f"A{i} is smallest at Δ = {result.table4[np.argmin(ours), 0]:g}° here and at "
                      f"Δ = {seed[np.argmin(theirs), 0]:g}° in the seed; it spans {np.ptp(ours) / np.mean(ours):.0%} "
                      f"of its mean here and {np.ptp(theirs) / np.mean(theirs):.0%} in the seed")  # fmt: skip
-    p1, p2 = result.table4[:, 2], result.table4[:, 4]
-    same = bool(np.all(p1 > 0) and np.all(p2 < 0) and np.all(np.diff(p1) > 0) and np.all(np.diff(p2) < 0))
-    phases = ("The phases have the seed's signs and trends (P1 > 0 rising, P2 < 0 falling with Δ)." if same else
-              "The phases do not follow the seed's pattern (P1 > 0 rising, P2 < 0 falling with Δ).")
-    return ("**Shapes.** " + "; ".join(parts) + ". " + phases + " The seed's "
-            "rise of the amplitudes towards small Δ is not reproduced by this frame model: near a collapsed "
-            "parallelogram the seed's solid model (joint blocks, contact, 1 mm mesh) differs most from beams.")
+    pattern = phase_pattern(result.table4)
+    phases = ("The phases share the seed's convention-free pattern: the two cells have opposite signs and both "
+              "grow with Δ." if pattern.convention_free_match else "The phases do not share the seed's "
+              "convention-free pattern (opposite signs, both growing with Δ).")  # fmt: skip
+    return ("**Shapes.** " + "; ".join(parts) + ". " + phases + " Whether the amplitudes rise again towards "
+            "small Δ, as the seed's do, depends on what is read as the signal and on how the cell is modelled: "
+            "see *What was the seed's model?* (`sail reproduce --seed-model`, the default).")
 
 
 def _rmse_section(result: StudyResult) -> str:
@@ -199,14 +200,18 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
         "## How the joint model drives the deviations",
         _table(header, [summary(main), summary(other), seed_row]),
         "**With ideal pin joints the linkage is statically determinate**: link l4 is a two-force member, each "
-        "driven link carries the constant shear T_i/l_i, and the load-cell signal is exactly proportional to "
-        "the predicted torque. Table 4 is then constant (P = 0 to rounding) and there is nothing to compensate. "
+        "driven link carries the constant shear T_i/l_i, and, without crosstalk, the load-cell signal is exactly "
+        "proportional to the predicted torque. Table 4 is then constant (P = 0 to rounding) and there is nothing to "
+        "compensate. "
         "**Joints that carry moment** (SolidWorks' default bonded contact, or stiff bearings) close the "
         "parallelogram into a statically indeterminate frame that shares load through bending, and amplitude "
-        "and phase deviations appear that vary with Δ. On the default robot with bonded joints, our phases have the seed's signs (P1 > 0, "
-        "P2 < 0, both growing with Δ), which supports docs/errata.md's hypothesis that its SolidWorks model had "
-        "bonded or otherwise moment-carrying joints. Their size depends on how stiff the joints and links are "
-        "relative to the load cells; the seed's Table 1 is garbled, so we cannot match its geometry.",
+        "and phase deviations appear that vary with Δ. "
+        + ("On this robot with bonded joints the phases share the seed's convention-free pattern (opposite signs, "
+           "both growing with Δ), consistent with docs/errata.md's hypothesis that its SolidWorks model had bonded "
+           "or otherwise moment-carrying joints. " if phase_pattern(main.table4).convention_free_match else "")
+        + "With bonded joints the size of the phases is set by the geometry (l2/l3, the cell position), not by "
+        "the ratio of cell to link stiffness; with spring joints the joint stiffness scales them. The seed's "
+        "Table 1 is garbled, so its geometry is unknown: *What was the seed's model?* fits it.",
         "**The Δ-only dependence.** With locked motors and no gravity, changing θ2 at fixed Δ rotates the whole "
         "structure rigidly, so the sensing map is M0(Δ) R(−θ2). The last column compares both cells' amplitude "
         f"and phase from sweep 1 ({main.protocol.describe_grid(1)}) and sweep 2 ({main.protocol.describe_grid(2)}) "
@@ -214,7 +219,8 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
     ])  # fmt: skip
 
 
-def report_markdown(main: StudyResult, comparison: StudyResult | None, study_seconds: float) -> str:
+def report_markdown(main: StudyResult, comparison: StudyResult | None, study_seconds: float,
+                    seed_model: SeedModelResult | None = None) -> str:
     """The whole report as Markdown; figures are referenced by file name in the same directory."""
     seed = seed_table4()
     k = main.prescale
@@ -251,8 +257,13 @@ def report_markdown(main: StudyResult, comparison: StudyResult | None, study_sec
         parts.append(_comparison_section(main, comparison))
         parts.append(f"The {comparison.robot.joints.model}-joint pass has its own figures, `table4.csv` and "
                      f"`results.json` in `{comparison.robot.joints.model}/`.")  # fmt: skip
+    if seed_model is not None:
+        from .seed_model import seed_model_section
+
+        parts.append(seed_model_section(seed_model, main))
     parts.append("## Files\n\n- `table4.csv`, `results.json`: the numbers above.\n"
-                 "- `fig4_stress.png`, `fig5_sweeps.png`, `fig6_compensated.png`, `table4.png`, `workspace.png`.")  # fmt: skip
+                 "- `fig4_stress.png`, `fig5_sweeps.png`, `fig6_compensated.png`, `table4.png`, `workspace.png`."
+                 + ("\n- `seed_model.json`, `seed_model.png`: the fits to the seed's Table 4." if seed_model else ""))  # fmt: skip
     return "\n\n".join(parts) + "\n"
 
 
@@ -277,9 +288,10 @@ def markdown_to_html(markdown: str, directory: Path, title: str) -> str:
             f"<style>{HTML_STYLE}</style></head><body>\n{body}</body></html>\n")  # fmt: skip
 
 
-def write_report(directory: Path, main: StudyResult, comparison: StudyResult | None, study_seconds: float) -> None:
+def write_report(directory: Path, main: StudyResult, comparison: StudyResult | None, study_seconds: float,
+                 seed_model: SeedModelResult | None = None) -> None:
     """Write ``report.md`` and the self-contained ``report.html`` into ``directory``."""
-    markdown = report_markdown(main, comparison, study_seconds)
+    markdown = report_markdown(main, comparison, study_seconds, seed_model)
     with atomic_writer(directory / "report.md") as stream:
         stream.write(markdown)
     with atomic_writer(directory / "report.html") as stream:

@@ -4,33 +4,14 @@ from __future__ import annotations
 
 import csv
 from dataclasses import asdict
-from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..io.files import atomic_writer, read_numeric_csv, write_json
+from ..io.files import atomic_writer, write_json
+from ..seed import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4  # noqa: F401  (re-exported: the report's seed values)
 from ..study import TABLE4_COLUMNS, StudyResult
-
-#: The seed's published regressors (Section 3, after Table 4), highest power first.
-SEED_REGRESSORS = {
-    "amplitude_1": (6.836e-06, -0.002404, 0.325, -19.43, 1145.0),
-    "phase_1_deg": (1.33e-07, -4.438e-05, 0.004638, -0.1106, 3.479),
-    "amplitude_2": (1.262e-05, -0.003925, 0.4893, -26.68, 1040.0),
-    "phase_2_deg": (0.0009928, -0.4999, 6.749),
-}
-#: The seed's validation RMSEs (Section 3), torque units, its curves pre-scaled by 740 and 528.
-SEED_RMSE = {"before": {"t1": 0.436, "t2": 0.696, "mean": 0.566}, "after": {"t1": 0.016, "t2": 0.09, "mean": 0.053}}
-SEED_PRESCALE = (740.0, 528.0)
-
-
-def seed_table4() -> np.ndarray:
-    """The seed's Table 4, shipped as ``sailforce/data/seed_table4.csv``: (8, 5), :data:`TABLE4_COLUMNS`."""
-    path = files("sailforce") / "data" / "seed_table4.csv"
-    names, table = read_numeric_csv(Path(str(path)))
-    assert tuple(names) == TABLE4_COLUMNS, names
-    return table
 
 
 def write_table4(path: Path, table: np.ndarray) -> None:

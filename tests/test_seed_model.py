@@ -1,0 +1,92 @@
+"""What was the seed's model? The families' machinery and the three checks, against analytic laws and our own study."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sailforce.io.robotkeys import with_keys
+from sailforce.robot import Robot
+from sailforce.seed import seed_table4
+from sailforce.seed_model import (
+    Family,
+    fit_families,
+    implied_torque_amplitudes,
+    interior_minimum,
+    phase_drivers,
+    phase_pattern,
+    pin_crosstalk,
+)
+from sailforce.study import run_study, table4
+
+#: The cot-delta law is exact in the frame: only rounding remains.
+LAW_TOL = 1e-9
+#: implied_torque_amplitudes evaluates Table 4 regressors (R^2 > 0.999, extrapolated to 127.5 deg), not the exact table.
+REGRESSOR_TOL = 0.01
+#: A noise-free family fit recovers its parameters.
+RECOVERY_RTOL = 1e-6
+
+
+def test_pin_joints_without_crosstalk_are_exact():
+    check = pin_crosstalk(Robot(), crosstalk=0.0)
+    assert check.a1_spread < LAW_TOL and check.a2_spread < LAW_TOL
+    assert check.p1_max_deg < LAW_TOL and max(map(abs, check.p2_range_deg)) < LAW_TOL
+
+
+@pytest.mark.parametrize("c", [0.02, -0.05])
+def test_axial_crosstalk_scales_cell_1_by_one_over_one_minus_c_cot_delta(c):
+    """N1 = -V1 cot(delta): cell 1 reads V1 (1 - c cot delta), in phase; cell 2 gains a phase offset."""
+    check = pin_crosstalk(Robot(), crosstalk=c)
+    assert check.a1_spread > 0.05
+    assert check.a1_corrected_spread < LAW_TOL
+    assert check.p1_max_deg < LAW_TOL
+    assert min(map(abs, check.p2_range_deg)) > 0.5
+
+
+def test_bonded_phases_follow_geometry_more_than_stiffness():
+    rows = {label: (p1, p2) for label, p1, p2 in phase_drivers(Robot())}
+    base = rows.pop("as given")
+    stiffness = [v for k, v in rows.items() if "compliance" in k or "link E" in k]
+    geometry = [v for k, v in rows.items() if k.startswith(("l2", "l3", "cell position"))]
+    for column in (0, 1):
+        moved_by_stiffness = max(abs(v[column] - base[column]) for v in stiffness)
+        moved_by_geometry = max(abs(v[column] - base[column]) for v in geometry)
+        assert moved_by_geometry > 1.5 * moved_by_stiffness
+
+
+def test_phase_pattern_is_free_of_the_convention():
+    seed = seed_table4()
+    flipped = seed.copy()
+    flipped[:, [2, 4]] *= -1.0
+    a, b = phase_pattern(seed), phase_pattern(flipped)
+    assert a.convention_free_match and b.convention_free_match
+    assert a.signs == (1, -1) and b.signs == (-1, 1)
+    shrinking = seed[::-1].copy()
+    assert not phase_pattern(shrinking).convention_free_match
+
+
+def test_seed_amplitudes_fall_then_rise():
+    seed = seed_table4()
+    assert interior_minimum(seed, 1) and interior_minimum(seed, 2)
+    monotone = seed.copy()
+    monotone[:, 1] = np.linspace(1.0, 2.0, len(seed))
+    assert not interior_minimum(monotone, 1)
+
+
+@pytest.mark.parametrize("transduction", ["deflection", "bridge"])
+def test_implied_lengths_recover_our_own_study(transduction):
+    """The seed-lengths inference, applied to a study whose lengths we know, gives them back."""
+    result = run_study(with_keys(Robot(), {"joints.model": "bonded"}), transduction)
+    regressors = {name: fit.coefficients for name, fit in result.regressors.items()}
+    implied = implied_torque_amplitudes(regressors, result.prescale, (result.rmse_before.t1, result.rmse_before.t2),
+                                        result.protocol)  # fmt: skip
+    np.testing.assert_allclose(implied, result.torque_amplitude, rtol=REGRESSOR_TOL)
+
+
+def test_a_family_recovers_the_robot_that_made_the_table():
+    truth = with_keys(Robot(), {"joints.model": "spring", "joints.stiffness": 300.0, "links.l3": 0.5})
+    family = Family("spring", "shared spring and l3", ("joints.stiffness", "links.l3"), fixed={"joints.model": "spring"})
+    (fit,) = fit_families(Robot(), table4(truth), (family,))
+    np.testing.assert_allclose(fit.fit.values, [300.0, 0.5], rtol=RECOVERY_RTOL)
+    assert fit.meets_targets and fit.score < 1e-3
+    np.testing.assert_allclose(fit.table, table4(truth), atol=1e-6)
