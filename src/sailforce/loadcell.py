@@ -44,6 +44,9 @@ from .materials import AL_7075_T6, Material, RectangularSection
 
 #: How the cell's bending compliance is given (module docstring).
 COMPLIANCE_MODELS = ("datasheet", "block", "matrix")
+#: Default 1-sigma reading noise [mV/V]: 1e-4 of the default 2 mV/V rated output, as the synthetic recordings
+#: (sailforce.synthetic.NoiseModel); an HX711 at gain 128 and 10 Hz is quieter (~50 nV on 5 V, 1e-5 mV/V).
+DEFAULT_NOISE_MV_V = 2e-4
 
 #: Standard gravity [m/s^2] (CGPM 1901), to turn a capacity in kg into newtons.
 STANDARD_GRAVITY = 9.80665
@@ -71,6 +74,7 @@ class LoadCell:
     compliance_vv: float = 0.0  #: [m/N] far-face deflection per shear (``matrix`` only)
     compliance_vm: float = 0.0  #: [1/N] far-face deflection per moment = rotation per shear (``matrix`` only)
     compliance_mm: float = 0.0  #: [1/(N m)] far-face rotation per moment (``matrix`` only)
+    noise_mV_V: float = DEFAULT_NOISE_MV_V  #: 1-sigma reading noise [mV/V] (ADC and bridge), for resolution maps
 
     def __post_init__(self) -> None:
         for name in ("capacity_kg", "rated_deflection", "length", "rated_output_mV_V"):
@@ -79,6 +83,8 @@ class LoadCell:
                 raise GeometryError(f"load cell {name} = {value!r} must be a positive number")
         if not (0.0 < self.position < 1.0):
             raise GeometryError(f"load cell position = {self.position!r} must lie strictly between 0 and 1")
+        if not (isinstance(self.noise_mV_V, (int, float)) and math.isfinite(self.noise_mV_V) and self.noise_mV_V >= 0):
+            raise GeometryError(f"load cell noise_mV_V = {self.noise_mV_V!r} must be a non-negative number")
         for name in ("crosstalk_axial", "crosstalk_moment"):
             if not math.isfinite(getattr(self, name)):
                 raise GeometryError(f"load cell {name} must be finite")

@@ -45,6 +45,7 @@ EXIT_TERMINATED = 143  #: 128 + SIGTERM
 _COMMAND_MODULES = {
     "calibrate": "calibrate_cmd",
     "demo": "demo_cmd",
+    "design": "design_cmd",
     "estimate": "estimate_cmd",
     "export-c": "export_cmd",
     "fit-poly": "fitpoly_cmd",

@@ -116,12 +116,7 @@ def make_frame(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, sprin
     if fixed.shape != (n_dofs,) or len(springs) != len(spring_k):
         raise ShapeError("fixed must have one flag per DOF and springs one stiffness each")
 
-    full = np.zeros((_MONOMIALS * n_axes + 1, n_dofs, n_dofs))
-    blocks = member_basis(local_k)  # (E, 6, 6, 6)
-    for e, dofs in enumerate(element_dofs):  # a member's six DOFs are distinct
-        rows = [_MONOMIALS * element_axis[e] + m for m in range(_MONOMIALS)] + [-1]
-        for m, row in enumerate(rows):
-            full[row][np.ix_(dofs, dofs)] += blocks[e, m]
+    full = _element_basis(n_dofs, n_axes, element_dofs, element_axis, local_k)
     for (a, b), k in zip(springs, spring_k):
         full[-1, a, a] += k
         if b != GROUND:
@@ -133,6 +128,36 @@ def make_frame(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, sprin
     return Frame(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, springs, spring_k, basis)
 
 
+def _element_basis(n_dofs: int, n_axes: int, element_dofs: np.ndarray, element_axis: np.ndarray,
+                   local: np.ndarray) -> np.ndarray:
+    """``(5 n_axes + 1, n_dofs, n_dofs)``: the members' local matrices ``local (E, 6, 6)`` in global axes, by monomial."""
+    full = np.zeros((_MONOMIALS * n_axes + 1, n_dofs, n_dofs))
+    blocks = member_basis(local)  # (E, 6, 6, 6)
+    for e, dofs in enumerate(element_dofs):  # a member's six DOFs are distinct
+        rows = [_MONOMIALS * element_axis[e] + m for m in range(_MONOMIALS)] + [-1]
+        for m, row in enumerate(rows):
+            full[row][np.ix_(dofs, dofs)] += blocks[e, m]
+    return full
+
+
+def matrix_basis(frame: Frame, local: np.ndarray, point: np.ndarray | None = None) -> np.ndarray:
+    """Another matrix over the frame's members (a mass matrix, say) as a basis like ``frame.basis``.
+
+    ``local`` ``(E, 6, 6)`` in each member's local axes, transformed as T^T m T
+    exactly as the stiffness is; ``point`` ``(n_dofs,)`` adds a pose-independent
+    diagonal (point masses on translations).  Restricted to the free DOFs;
+    evaluate it at poses with :func:`assemble_basis`.
+    """
+    local = np.asarray(local, dtype=float)
+    if local.shape != frame.local_k.shape:
+        raise ShapeError(f"local: expected shape {frame.local_k.shape}, got {local.shape}")
+    full = _element_basis(frame.n_dofs, frame.n_axes, frame.element_dofs, frame.element_axis, local)
+    if point is not None:
+        full[-1] += np.diag(np.asarray(point, dtype=float))
+    free = ~frame.fixed
+    return full[:, free][:, :, free]
+
+
 def monomials(angles: np.ndarray) -> np.ndarray:
     """``(N, 5 n_axes + 1)``: (c^2, cs, s^2, c, s) for each axis angle, then 1."""
     c, s = np.cos(angles), np.sin(angles)
@@ -142,8 +167,13 @@ def monomials(angles: np.ndarray) -> np.ndarray:
 
 def assemble(frame: Frame, angles: np.ndarray) -> np.ndarray:
     """Stacked stiffness over the free DOFs, ``(N, n_free, n_free)``, for axis angles ``(N, n_axes)``."""
-    n_free = frame.basis.shape[-1]
-    flat = monomials(angles) @ frame.basis.reshape(len(frame.basis), -1)
+    return assemble_basis(frame.basis, angles)
+
+
+def assemble_basis(basis: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """``(N, n, n)``: the matrix whose monomial basis is ``basis`` at axis angles ``(N, n_axes)``."""
+    n_free = basis.shape[-1]
+    flat = monomials(angles) @ basis.reshape(len(basis), -1)
     return flat.reshape(len(angles), n_free, n_free)
 
 

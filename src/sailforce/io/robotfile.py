@@ -22,7 +22,7 @@ LINK_KEYS = ("l1", "l2", "l3", "l4")
 MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
 LOADCELL_KEYS = ("capacity_kg", "rated_deflection", "length", "position", "depth", "thickness",
                  "rated_output_mV_V", "crosstalk_axial", "crosstalk_moment",
-                 "compliance", "compliance_vv", "compliance_vm", "compliance_mm")  # fmt: skip
+                 "compliance", "compliance_vv", "compliance_vm", "compliance_mm", "noise_mV_V")  # fmt: skip
 #: Keys whose value is a quoted name rather than a number.
 NAME_KEYS = ("model", "compliance")
 #: Each optional section and the keys it may hold; ``links`` is required.
@@ -92,6 +92,7 @@ compliance = "{compliance}"  # bending compliance: "datasheet" (beam fitted to r
 compliance_vv = {cvv:g}         # m/N, far-face deflection per shear, near face clamped ("matrix" only)
 compliance_vm = {cvm:g}         # 1/N, far-face deflection per moment = rotation per shear
 compliance_mm = {cmm:g}         # 1/(N m), far-face rotation per moment
+noise_mV_V = {noise:g}        # 1-sigma reading noise (ADC and bridge), for sail design's resolution maps
 
 [joints]            # the passive joints P1, P2, P3
 model = "{joints}"       # "pin" (ideal revolute), "bonded" (rigid, SolidWorks' default contact) or "spring"
@@ -139,7 +140,7 @@ def template(robot: Robot | None = None) -> str:
         capacity_kg=cell.capacity_kg, rated_deflection=cell.rated_deflection, length=cell.length,
         position=cell.position, cell_depth=cell.block.depth, cell_thickness=cell.block.thickness,
         rated_output=cell.rated_output_mV_V, xa=cell.crosstalk_axial, xm=cell.crosstalk_moment,
-        compliance=cell.compliance, cvv=cell.compliance_vv, cvm=cell.compliance_vm, cmm=cell.compliance_mm,
+        compliance=cell.compliance, cvv=cell.compliance_vv, cvm=cell.compliance_vm, cmm=cell.compliance_mm, noise=cell.noise_mV_V,
         joints=r.joints.model, joint_k=r.joints.stiffness, joint_overrides=_joint_overrides(r.joints),
         motors=r.motors.model, motor_k=r.motors.stiffness,
         handle_mass=r.handle.mass, handle_position=r.handle.position, tilt=r.plane.tilt_deg, axis=r.plane.axis_deg,
