@@ -20,7 +20,7 @@ def _range(text: str, name: str) -> tuple[float, float]:
     try:
         low, high = (float(p) for p in parts)
     except ValueError:
-        raise click.BadParameter(f"expected LOW:HIGH in degrees, got {text!r}", param_hint=f"--{name}") from None
+        raise click.BadParameter(f"expected LOW:HIGH in degrees, got {text!r}", param_hint=f"--{name}-deg") from None
     return low, high
 
 
@@ -30,11 +30,11 @@ def _range(text: str, name: str) -> tuple[float, float]:
 @robot_option
 @click.option("--grid", type=click.IntRange(2, 400), default=DEFAULT_GRID, show_default=True,
               help="Points per side of the x-y grid over the workspace.")
-@click.option("--theta1", default=f"{DEFAULT_THETA1_DEG[0]:g}:{DEFAULT_THETA1_DEG[1]:g}", show_default=True,
+@click.option("--theta1-deg", "theta1", default=f"{DEFAULT_THETA1_DEG[0]:g}:{DEFAULT_THETA1_DEG[1]:g}", show_default=True,
               help="Joint limits of theta1, LOW:HIGH [deg].")
-@click.option("--theta2", default=f"{DEFAULT_THETA2_DEG[0]:g}:{DEFAULT_THETA2_DEG[1]:g}", show_default=True,
+@click.option("--theta2-deg", "theta2", default=f"{DEFAULT_THETA2_DEG[0]:g}:{DEFAULT_THETA2_DEG[1]:g}", show_default=True,
               help="Joint limits of theta2, LOW:HIGH [deg].")
-@click.option("--delta", default=f"{DEFAULT_DELTA_DEG[0]:g}:{DEFAULT_DELTA_DEG[1]:g}", show_default=True,
+@click.option("--delta-deg", "delta", default=f"{DEFAULT_DELTA_DEG[0]:g}:{DEFAULT_DELTA_DEG[1]:g}", show_default=True,
               help="Limits of delta = theta1 - theta2, LOW:HIGH [deg], away from the singularities at 0 and 180.")
 @click.option("--safety-factor", type=click.FloatRange(0.0, min_open=True), default=DEFAULT_SAFETY_FACTOR,
               show_default=True, help="On the links' yield strength, for the overload map.")

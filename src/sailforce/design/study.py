@@ -65,7 +65,8 @@ def design_grid(robot: Robot, n: int = DEFAULT_GRID, theta1_deg=DEFAULT_THETA1_D
     t1r, t2r, dr = (np.radians(_check_range(name, r)) for name, r in
                     (("theta1", theta1_deg), ("theta2", theta2_deg), ("delta", delta_deg)))  # fmt: skip
     arm = robot.arm
-    s1, s2 = np.meshgrid(np.linspace(*t1r, BOUNDS_SAMPLES), np.linspace(*t2r, BOUNDS_SAMPLES), indexing="ij")
+    s1, s2 = np.meshgrid(np.linspace(t1r[0], t1r[1], BOUNDS_SAMPLES), np.linspace(t2r[0], t2r[1], BOUNDS_SAMPLES),
+                         indexing="ij")  # fmt: skip
     inside = (s1 - s2 >= dr[0]) & (s1 - s2 <= dr[1])
     if not inside.any():
         raise DesignError("no pose satisfies the theta1, theta2 and delta limits together")
