@@ -146,6 +146,38 @@ def test_mass_matrix_carries_the_arm_and_handle_mass():
         assert t @ M @ t == pytest.approx(float(per @ model.lengths) + 0.7, rel=CLOSED_FORM_RTOL)
 
 
+def test_per_link_sections_and_materials_reach_stiffness_mass_and_stress():
+    """A heavier, deeper l3 and an aluminium l4: the mass is the hand sum, pin torques stay J^T F, l3 stresses drop."""
+    from dataclasses import replace
+
+    from sailforce.fem.model import MEMBER_LINK, MEMBERS
+    from sailforce.fem.response import member_stresses
+
+    base = Robot()
+    robot = with_keys(base, {"sections.l3.depth": 0.04, "sections.l3.thickness": 0.012, "materials.l4.rho": 2700.0,
+                             "materials.l4.E": 7.0e10})  # fmt: skip
+    assert robot.section("l1") == base.link_section and robot.material("l3") == base.link_material
+    model = build_model(robot)
+    loose = replace(model, frame=replace(model.frame, fixed=np.zeros(model.frame.n_dofs, dtype=bool)))
+    M = assemble_basis(arm_mass_basis(loose), np.array([[1.2, -0.3]]))[0]
+    t = np.zeros(model.frame.n_dofs)
+    t[[index for name, index in model.dof.items() if name.endswith(".u")]] = 1.0
+    cell = robot.loadcell.material.rho * robot.loadcell.block.area
+    by_link = {"l1": 7800 * 2.5e-4, "l2": 7800 * 2.5e-4, "l3": 7800 * 0.04 * 0.012, "l4": 2700 * 2.5e-4}
+    per = np.array([cell if kind == "cell" else by_link[link] for (*_, kind), link in zip(MEMBERS, MEMBER_LINK)])
+    assert t @ M @ t == pytest.approx(float(per @ model.lengths), rel=CLOSED_FORM_RTOL)
+    # pin joints: the torques are statics alone, whatever the sections
+    theta1, theta2 = np.radians([100.0, 70.0]), np.radians([10.0, -20.0])
+    pin = simulate(robot.with_joints("pin"), theta1, theta2)
+    np.testing.assert_allclose(pin.torques, simulate(base.with_joints("pin"), theta1, theta2).torques, rtol=1e-9)
+    # statically determinate: the same internal forces; l3's stress from its own section, |N|/(t d) + |M|/(t d^2/6)
+    heavy, plain = (member_stresses(simulate(r.with_joints("pin"), theta1, theta2), 1.0, 0.0) for r in (robot, base))
+    l3 = [i for i, link in enumerate(MEMBER_LINK) if link == "l3"]
+    np.testing.assert_allclose(heavy.moment, plain.moment, rtol=1e-9, atol=1e-12)
+    by_hand = np.abs(heavy.axial[:, l3]) / (0.012 * 0.04) + np.abs(heavy.moment[:, l3]) / (0.012 * 0.04**2 / 6)
+    np.testing.assert_allclose(heavy.normal_stress[:, l3], by_hand, rtol=1e-12)
+
+
 def test_design_grid_refuses_impossible_limits():
     with pytest.raises(DesignError, match="no pose"):
         design_grid(Robot(), 10, (0, 10), (50, 60), (15, 165))

@@ -102,6 +102,32 @@ def test_structure_sections_are_read(tmp_path):
     assert robot.motors.model == "gearbox" and robot.motors.stiffness == default.motors.stiffness
 
 
+def test_per_link_sections_and_materials(tmp_path):
+    """[sections.l3] and [materials.l4] override the shared tables key by key, and survive a round trip."""
+    from sailforce.io.robotfile import robot_data, robot_from_data, template
+
+    path = tmp_path / "r.toml"
+    path.write_text(
+        "[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n"
+        "[sections]\ndepth = 0.03\n[sections.l3]\nthickness = 0.015\n"
+        "[materials.links]\nE = 7.0e10\n[materials.l4]\nrho = 2700\n"
+    )
+    robot = load_robot_file(path).robot
+    assert robot.section("l3").depth == 0.03 and robot.section("l3").thickness == 0.015
+    assert robot.section("l1") == robot.link_section and robot.section("l1").thickness == 0.010
+    assert robot.material("l4").rho == 2700 and robot.material("l4").E == 7.0e10 and robot.material("l3").rho == 7800
+    assert not robot.uniform_links and Robot().uniform_links
+    assert robot_from_data(robot_data(robot)) == robot
+    (tmp_path / "t.toml").write_text(template(robot))
+    assert load_robot_file(tmp_path / "t.toml").robot == robot
+    path.write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[sections.l3]\nwidth = 0.015\n")
+    with pytest.raises(RobotFileError, match=r"\[sections.l3\] has unknown key\(s\) width"):
+        load_robot_file(path)
+    path.write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[materials.l5]\nrho = 1\n")
+    with pytest.raises(RobotFileError, match="unknown key"):
+        load_robot_file(path)
+
+
 def test_links_only_file_gets_structure_defaults(tmp_path):
     from sailforce.robot import Robot
 

@@ -22,6 +22,8 @@ MOTOR_MODELS = ("locked", "gearbox")
 
 #: The passive joints, in the order the frame model lists them.
 JOINT_NAMES = ("P1", "P2", "P3")
+#: The four links, each of which may have its own section and material (issue 17).
+LINK_NAMES = ("l1", "l2", "l3", "l4")
 
 
 @dataclass(frozen=True)
@@ -133,11 +135,31 @@ class Plane:
 
 
 @dataclass(frozen=True)
+class LinkBody:
+    """One link's own section and material; ``None`` keeps the robot's shared one."""
+
+    section: RectangularSection | None = None
+    material: Material | None = None
+
+
+@dataclass(frozen=True)
+class LinkBodies:
+    """Per-link overrides of the shared link section and material (a robot file's ``[sections.l3]``, ``[materials.l3]``)."""
+
+    l1: LinkBody | None = None
+    l2: LinkBody | None = None
+    l3: LinkBody | None = None
+    l4: LinkBody | None = None
+
+
+@dataclass(frozen=True)
 class Robot:
     """A SAIL arm as a structure.
 
     Links default to a 25 mm deep, 10 mm thick bar of plain carbon steel
     (seed Table 2; the section is our assumption since Table 1 is garbled).
+    ``link_section`` and ``link_material`` serve every link that ``bodies``
+    does not override; :meth:`section` and :meth:`material` give each link's.
     """
 
     arm: Arm = field(default_factory=Arm)
@@ -148,6 +170,27 @@ class Robot:
     motors: Motors = field(default_factory=Motors)
     handle: Handle = field(default_factory=Handle)
     plane: Plane = field(default_factory=Plane)
+    bodies: LinkBodies = field(default_factory=LinkBodies)
+
+    def section(self, link: str) -> RectangularSection:
+        """The cross-section of ``link`` (``"l1"`` ... ``"l4"``): its own, or the shared one."""
+        own = self._body(link)
+        return own.section if own is not None and own.section is not None else self.link_section
+
+    def material(self, link: str) -> Material:
+        """The material of ``link``: its own, or the shared one."""
+        own = self._body(link)
+        return own.material if own is not None and own.material is not None else self.link_material
+
+    def _body(self, link: str) -> LinkBody | None:
+        if link not in LINK_NAMES:
+            raise GeometryError(f"link {link!r}: expected one of {', '.join(LINK_NAMES)}")
+        return getattr(self.bodies, link)
+
+    @property
+    def uniform_links(self) -> bool:
+        """True when every link has the shared section and material."""
+        return all(self.section(n) == self.link_section and self.material(n) == self.link_material for n in LINK_NAMES)
 
     def __post_init__(self) -> None:
         cell = self.loadcell

@@ -49,6 +49,8 @@ MEMBERS = (
     ("l3 outer", "P3", "A", 0, "link"),
     ("l4", "P1", "P3", 1, "link"),
 )
+#: The link each member belongs to (its section and material, :meth:`~sailforce.robot.Robot.section`)
+MEMBER_LINK = ("l1", "l1", "l1", "l2", "l2", "l2", "l3", "l3", "l4")
 LOADCELL_MEMBERS = (1, 4)  #: member index of load cell 1 and 2
 ROOT_MEMBERS = (0, 3)  #: the members held by motor 1 and 2 at B
 MEMBER_AXIS = np.array([axis for _, _, _, axis, _ in MEMBERS])
@@ -99,11 +101,14 @@ def _member_offsets(lengths: np.ndarray) -> np.ndarray:
 
 
 def _rigidities(robot: Robot, shear_deformation: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    section, steel, cell = robot.link_section, robot.link_material, robot.loadcell
-    link = (steel.E * section.area, steel.E * section.second_moment,
-            section.shear_coefficient(steel.nu) * steel.G * section.area)  # fmt: skip
+    def link(name: str) -> tuple[float, float, float]:
+        section, material = robot.section(name), robot.material(name)
+        return (material.E * section.area, material.E * section.second_moment,
+                section.shear_coefficient(material.nu) * material.G * section.area)  # fmt: skip
+
+    cell = robot.loadcell
     loadcell = (cell.axial_rigidity, cell.bending_rigidity, cell.shear_rigidity)
-    rows = np.array([loadcell if kind == "cell" else link for *_, kind in MEMBERS])
+    rows = np.array([loadcell if kind == "cell" else link(name) for (*_, kind), name in zip(MEMBERS, MEMBER_LINK)])
     EA, EI, kGA = rows.T
     if not shear_deformation:
         kGA = np.full_like(kGA, np.inf)

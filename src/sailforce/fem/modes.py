@@ -31,7 +31,7 @@ import numpy as np
 
 from .._validate import as_float_arrays
 from .frame import CHUNK, Frame, assemble, assemble_basis, matrix_basis
-from .model import LOADCELL_MEMBERS, ArmModel
+from .model import LOADCELL_MEMBERS, MEMBER_LINK, ArmModel
 
 #: Modes :func:`arm_modes` returns by default: the first three are the arm's bending modes that matter for haptics.
 DEFAULT_MODES = 3
@@ -97,10 +97,8 @@ def _modes_chunk(frame: Frame, mass_basis: np.ndarray, angles: np.ndarray, count
 def arm_mass_basis(model: ArmModel) -> np.ndarray:
     """The SAIL arm's mass basis: links rho A of their material and section, cells of their block, the handle."""
     robot = model.robot
-    link = robot.link_material.rho * robot.link_section.area
-    cell = robot.loadcell.material.rho * robot.loadcell.block.area
-    per_length = np.full(len(model.lengths), link)
-    per_length[list(LOADCELL_MEMBERS)] = cell
+    per_length = np.array([robot.material(name).rho * robot.section(name).area for name in MEMBER_LINK])
+    per_length[list(LOADCELL_MEMBERS)] = robot.loadcell.material.rho * robot.loadcell.block.area
     point = np.zeros(model.frame.n_dofs)
     mass = robot.handle.mass
     if mass > 0:

@@ -28,7 +28,7 @@ from .._validate import as_float_arrays
 from ..robot import Robot
 from .elements import rotation
 from .frame import solve
-from .model import LOADCELL_MEMBERS, MEMBERS, ROOT_MEMBERS, ArmModel, build_model
+from .model import LOADCELL_MEMBERS, MEMBER_LINK, MEMBERS, ROOT_MEMBERS, ArmModel, build_model
 
 TRANSDUCTIONS = ("deflection", "bridge")
 TRANSDUCTION_UNITS = {"deflection": "m", "bridge": "mV/V"}
@@ -158,11 +158,11 @@ def member_stresses(response: ArmResponse, fx, fy, points: int = 2) -> MemberStr
 
 
 def _section_table(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    link, cell = robot.link_section, robot.loadcell.block
+    cell = robot.loadcell.block
     rows = [
         (cell.area, cell.section_modulus, robot.loadcell.material.yield_strength)
         if kind == "cell"
-        else (link.area, link.section_modulus, robot.link_material.yield_strength)
-        for *_, kind in MEMBERS
+        else (robot.section(name).area, robot.section(name).section_modulus, robot.material(name).yield_strength)
+        for (*_, kind), name in zip(MEMBERS, MEMBER_LINK)
     ]
     return tuple(np.array(column) for column in zip(*rows))

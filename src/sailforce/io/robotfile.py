@@ -16,9 +16,10 @@ from typing import Any
 from ..arm import Arm
 from ..errors import GeometryError, RobotFileError
 from ..materials import RectangularSection
-from ..robot import JOINT_NAMES, Joint, Joints, Robot
+from ..robot import JOINT_NAMES, LINK_NAMES, Joint, Joints, LinkBodies, LinkBody, Robot
 
-LINK_KEYS = ("l1", "l2", "l3", "l4")
+LINK_KEYS = LINK_NAMES
+SECTION_KEYS = ("depth", "thickness")
 MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
 LOADCELL_KEYS = ("capacity_kg", "rated_deflection", "length", "position", "depth", "thickness",
                  "rated_output_mV_V", "crosstalk_axial", "crosstalk_moment",
@@ -28,8 +29,8 @@ NAME_KEYS = ("model", "compliance")
 #: Each optional section and the keys it may hold; ``links`` is required.
 SECTIONS = {
     "links": LINK_KEYS,
-    "sections": ("depth", "thickness"),
-    "materials": ("links", "loadcells"),
+    "sections": (*SECTION_KEYS, *LINK_NAMES),
+    "materials": ("links", "loadcells", *LINK_NAMES),
     "loadcells": LOADCELL_KEYS,
     "joints": ("model", "stiffness", *JOINT_NAMES),
     "motors": ("model", "stiffness"),
@@ -61,16 +62,21 @@ l2 = {l2}   # m, B to P2, driven by theta2
 l3 = {l3}  # m, P2 through P3 to the end effector A; must exceed l1 (|P2 P3| = l1)
 l4 = {l4}   # m, P1 to P3; must equal l2
 
-[sections]          # rectangular cross-section of all four links
+[sections]          # rectangular cross-section of the four links
 depth = {depth}     # m, in the plane of motion (bending depth)
 thickness = {thickness}  # m, out of the plane
-
+# [sections.l3]     # optional: one link's own section, overriding [sections] (also l1, l2, l4)
+# depth = 0.03
+{section_overrides}
 [materials.links]   # seed Table 2: plain carbon steel
 E = {steel_E:g}            # Pa
 nu = {steel_nu}              # -
 rho = {steel_rho:g}            # kg/m^3
 yield_strength = {steel_yield:g}  # Pa
 
+# [materials.l4]    # optional: one link's own material, overriding [materials.links] (also l1, l2, l3)
+# rho = 2700
+{material_overrides}
 [materials.loadcells]  # seed Table 3: 7075-T6 aluminium
 E = {al_E:g}
 nu = {al_nu}
@@ -141,10 +147,21 @@ def template(robot: Robot | None = None) -> str:
         position=cell.position, cell_depth=cell.block.depth, cell_thickness=cell.block.thickness,
         rated_output=cell.rated_output_mV_V, xa=cell.crosstalk_axial, xm=cell.crosstalk_moment,
         compliance=cell.compliance, cvv=cell.compliance_vv, cvm=cell.compliance_vm, cmm=cell.compliance_mm, noise=cell.noise_mV_V,
+        section_overrides=_link_overrides(r, "sections"), material_overrides=_link_overrides(r, "materials"),
         joints=r.joints.model, joint_k=r.joints.stiffness, joint_overrides=_joint_overrides(r.joints),
         motors=r.motors.model, motor_k=r.motors.stiffness,
         handle_mass=r.handle.mass, handle_position=r.handle.position, tilt=r.plane.tilt_deg, axis=r.plane.axis_deg,
     )  # fmt: skip
+
+
+def _link_overrides(robot: Robot, section: str) -> str:
+    """``[sections.l3]`` or ``[materials.l3]`` ... tables for the links that have their own."""
+    tables = []
+    for name, values in robot_data(robot)[section].items():
+        if name in LINK_NAMES:
+            body = "\n".join(f"{key} = {value!r}" for key, value in values.items())
+            tables.append(f"[{section}.{name}]\n{body}\n")
+    return "\n".join(tables)
 
 
 def _joint_overrides(joints: Joints) -> str:
@@ -216,10 +233,18 @@ def robot_data(robot: Robot) -> dict[str, Any]:
         own = getattr(robot.joints, name)
         if own is not None:
             joints[name] = {"model": own.model, "stiffness": own.stiffness}
+    sections: dict[str, Any] = {"depth": robot.link_section.depth, "thickness": robot.link_section.thickness}
+    materials: dict[str, Any] = {"links": material(robot.link_material), "loadcells": material(cell.material)}
+    for name in LINK_NAMES:
+        own = getattr(robot.bodies, name)
+        if own is not None and own.section is not None:
+            sections[name] = {"depth": own.section.depth, "thickness": own.section.thickness}
+        if own is not None and own.material is not None:
+            materials[name] = material(own.material)
     return {
         "links": {"l1": arm.l1, "l2": arm.l2, "l3": arm.l3, "l4": arm.l4},
-        "sections": {"depth": robot.link_section.depth, "thickness": robot.link_section.thickness},
-        "materials": {"links": material(robot.link_material), "loadcells": material(cell.material)},
+        "sections": sections,
+        "materials": materials,
         "loadcells": {**{key: getattr(cell, key) for key in LOADCELL_KEYS if key not in ("depth", "thickness")},
                       "depth": cell.block.depth, "thickness": cell.block.thickness},
         "joints": joints,
@@ -253,6 +278,17 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
     sections = _table(path, data, "sections")
     materials = _table(path, data, "materials")
     link_mat = _table(path, materials, "links", MATERIAL_KEYS, parent="materials") if "links" in materials else {}
+    link_section = replace(default.link_section, **{k: v for k, v in sections.items() if k in SECTION_KEYS})
+    link_material = replace(default.link_material, **link_mat)
+    bodies = {}
+    for name in LINK_NAMES:
+        own_section = _table(path, sections, name, SECTION_KEYS, parent="sections") if name in sections else None
+        own_material = _table(path, materials, name, MATERIAL_KEYS, parent="materials") if name in materials else None
+        if own_section is not None or own_material is not None:
+            bodies[name] = LinkBody(
+                None if own_section is None else replace(link_section, **own_section),
+                None if own_material is None else replace(link_material, name=f"{link_material.name}, {name}'s own", **own_material),
+            )  # fmt: skip
     cell_mat = _table(path, materials, "loadcells", MATERIAL_KEYS, parent="materials") if "loadcells" in materials else {}
     cells = _table(path, data, "loadcells")
     joints = _table(path, data, "joints")
@@ -274,8 +310,8 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
     cell_fields = {k: cells[k] for k in LOADCELL_KEYS if k in cells and k not in ("depth", "thickness")}
     return Robot(
         arm=arm,
-        link_section=replace(default.link_section, **sections),
-        link_material=replace(default.link_material, **link_mat),
+        link_section=link_section,
+        link_material=link_material,
         loadcell=replace(
             cell_default, block=cell_block, material=replace(cell_default.material, **cell_mat), **cell_fields
         ),
@@ -284,6 +320,7 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
         motors=replace(default.motors, **motors),
         handle=replace(default.handle, **handle),
         plane=replace(default.plane, **plane),
+        bodies=LinkBodies(**bodies),
     )
 
 

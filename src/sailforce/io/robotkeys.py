@@ -8,8 +8,10 @@ rebuilds the robot through the robot file's own validation, so a value the
 file would refuse is refused here too, naming the key.
 
 Two keys move together: ``links.l2`` also sets ``links.l4`` (the parallelogram
-needs l4 = l2), and a per-joint key such as ``joints.P1.stiffness`` on a robot
-without a ``[joints.P1]`` table starts that table from the shared ``[joints]``.
+needs l4 = l2).  A per-joint key such as ``joints.P1.stiffness`` on a robot
+without a ``[joints.P1]`` table starts that table from the shared ``[joints]``;
+likewise a per-link key, ``sections.l3.depth`` from ``[sections]`` and
+``materials.l3.E`` from ``[materials.links]``.
 """
 
 from __future__ import annotations
@@ -19,8 +21,26 @@ from collections.abc import Iterator, Mapping
 from typing import Any
 
 from ..errors import RobotFileError
-from ..robot import JOINT_NAMES, Robot
-from .robotfile import robot_data, robot_from_data
+from ..robot import JOINT_NAMES, LINK_NAMES, Robot
+from .robotfile import SECTION_KEYS, robot_data, robot_from_data
+
+#: Per-body tables that start, when absent, from a shared table: (section, names) -> the shared table's path
+_SHARED = {"joints": (JOINT_NAMES, ("joints",)), "sections": (LINK_NAMES, ("sections",)),
+           "materials": (LINK_NAMES, ("materials", "links"))}  # fmt: skip
+
+
+def _shared(data: dict[str, Any], section: str) -> dict[str, Any]:
+    """The shared table a per-body table of ``section`` starts from (its plain values only)."""
+    node = data
+    for part in _SHARED[section][1]:
+        node = node[part]
+    keep = SECTION_KEYS if section == "sections" else ("model", "stiffness") if section == "joints" else tuple(node)
+    return {k: node[k] for k in keep}
+
+
+def _per_body(parts: list[str]) -> bool:
+    """True for a three-part key on a per-body table: ``joints.P1.stiffness``, ``sections.l3.depth`` ..."""
+    return len(parts) == 3 and parts[0] in _SHARED and parts[1] in _SHARED[parts[0]][0]
 
 
 def _leaves(table: Mapping[str, Any], prefix: str = "") -> Iterator[tuple[str, Any]]:
@@ -34,8 +54,9 @@ def _leaves(table: Mapping[str, Any], prefix: str = "") -> Iterator[tuple[str, A
 def robot_keys(robot: Robot, *, numeric: bool = False) -> tuple[str, ...]:
     """Every key of ``robot`` (``numeric``: only those holding numbers), per-joint keys included."""
     data = robot_data(robot)
-    for name in JOINT_NAMES:
-        data["joints"].setdefault(name, {"model": robot.joints.model, "stiffness": robot.joints.stiffness})
+    for section, (names, _) in _SHARED.items():
+        for name in names:
+            data[section].setdefault(name, _shared(data, section))
     return tuple(key for key, value in _leaves(data) if not numeric or not isinstance(value, str))
 
 
@@ -47,11 +68,11 @@ def _unknown(robot: Robot, key: str) -> RobotFileError:
 
 
 def get_key(robot: Robot, key: str) -> Any:
-    """The value of ``key`` on ``robot`` (a per-joint key falls back to the shared joint)."""
+    """The value of ``key`` on ``robot`` (a per-joint or per-link key falls back to the shared table)."""
     node: Any = robot_data(robot)
     parts = key.split(".")
-    if len(parts) == 3 and parts[0] == "joints" and parts[1] in JOINT_NAMES and parts[1] not in node["joints"]:
-        parts = ["joints", parts[2]]
+    if _per_body(parts) and parts[1] not in node[parts[0]]:
+        parts = [*_SHARED[parts[0]][1], parts[2]]
     for part in parts:
         if not isinstance(node, dict) or part not in node:
             raise _unknown(robot, key)
@@ -70,8 +91,8 @@ def with_keys(robot: Robot, values: Mapping[str, Any]) -> Robot:
         parts = key.split(".")
         node = edited
         for i, part in enumerate(parts[:-1]):
-            if part not in node and i == 1 and parts[0] == "joints":
-                node[part] = {"model": data["joints"]["model"], "stiffness": data["joints"]["stiffness"]}
+            if part not in node and i == 1 and _per_body(parts):
+                node[part] = _shared(data, parts[0])
             node = node[part]
         node[parts[-1]] = value
         if key == "links.l2":

@@ -352,15 +352,18 @@ def inertial_parameters(robot) -> InertialParameters:
     l3.  Joint hardware is not modelled: identify the real values from a
     free-motion recording (``sail calibrate --free-motion``).
     """
-    arm, cell, section = robot.arm, robot.loadcell, robot.link_section
-    link_density = robot.link_material.rho * section.depth * section.thickness
+    arm, cell = robot.arm, robot.loadcell
     cell_density = cell.material.rho * cell.block.depth * cell.block.thickness
 
-    def outer(length: float) -> BodyInertia:
+    def link(name: str, start: float, end: float) -> BodyInertia:
+        section = robot.section(name)
+        return bar(start, end, robot.material(name).rho * section.area, section.depth)
+
+    def outer(name: str, length: float) -> BodyInertia:
         centre = cell.position * length
         return (bar(centre, centre + cell.length / 2, cell_density, cell.block.depth)
-                + bar(centre + cell.length / 2, length, link_density, section.depth))  # fmt: skip
+                + link(name, centre + cell.length / 2, length))  # fmt: skip
 
     handle = point_mass(robot.handle.mass, robot.handle.position * arm.l3)
-    return InertialParameters(outer(arm.l1), outer(arm.l2), bar(0.0, arm.l2, link_density, section.depth),
-                              bar(0.0, arm.l3, link_density, section.depth) + handle)  # fmt: skip
+    return InertialParameters(outer("l1", arm.l1), outer("l2", arm.l2), link("l4", 0.0, arm.l2),
+                              link("l3", 0.0, arm.l3) + handle)  # fmt: skip

@@ -12,6 +12,7 @@ from ..design.study import Design
 from ..fem.model import MEMBERS, build_model, node_positions
 from ..io.files import atomic_writer, write_json
 from .document import markdown_to_html
+from .labels import links_label
 
 #: Ellipses drawn per side of the grid in the resolution figure (the rest would overlap).
 ELLIPSES_PER_SIDE = 12
@@ -147,7 +148,7 @@ def report_markdown(design: Design, seconds: float) -> str:
         "# SAIL design report",
         f"sailforce {__version__} · {design.grid.theta1.size} poses on a {len(design.grid.x)} × {len(design.grid.y)} "
         f"x–y grid · computed in {seconds:.2f} s",
-        f"Robot: l1 = {robot.arm.l1:g} m, l2 = {robot.arm.l2:g} m, l3 = {robot.arm.l3:g} m; joints "
+        f"Robot: l1 = {robot.arm.l1:g} m, l2 = {robot.arm.l2:g} m, l3 = {robot.arm.l3:g} m; {links_label(robot)}; joints "
         f"**{robot.joints.label}**; cells {robot.loadcell.capacity_kg:g} kg at {robot.loadcell.position:g} of each "
         f"link, {robot.loadcell.rated_output_mV_V:g} mV/V, reading noise {robot.loadcell.noise_mV_V:g} mV/V (1σ); "
         f"handle {robot.handle.mass:g} kg. Reach {s['reach_m']['min']:.3g}…{s['reach_m']['max']:.3g} m, "

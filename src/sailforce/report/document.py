@@ -17,7 +17,7 @@ from ..kinematics import SINGULAR_SIN_DELTA
 from ..materials import CARBON_STEEL, SEED_TABLE2_SHEAR_MODULUS
 from ..seed_model import SeedModelResult, phase_pattern
 from ..study import ModelId, Protocol, StudyResult, span_deg
-from .labels import model_label
+from .labels import links_label, model_label
 from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
 
 #: How far past the fitted Delta range [deg] a validation pose must lie to count as extrapolated.
@@ -233,8 +233,7 @@ def report_markdown(main: StudyResult, comparison: StudyResult | None, study_sec
         f"criterion **{main.criterion} > {main.threshold:g}** · study computed in {study_seconds:.2f} s "
         f"(the protocol is {sweep_runs} + {validation_runs} analyses, which the seed ran in SolidWorks).",
         f"Robot: l1 = {robot.arm.l1:g} m, l2 = {robot.arm.l2:g} m, l3 = {robot.arm.l3:g} m, l4 = {robot.arm.l4:g} m; "
-        f"links {robot.link_section.depth * 1e3:g} × {robot.link_section.thickness * 1e3:g} mm "
-        f"{robot.link_material.name}; load cell EI = {robot.loadcell.bending_rigidity:.4g} N·m², "
+        f"{links_label(robot)}; load cell EI = {robot.loadcell.bending_rigidity:.4g} N·m², "
         f"{robot.loadcell.capacity_N:g} N capacity; motors {robot.motors.model}.",
         "## Errata in the seed paper",
         "\n".join(f"- {e}" for e in errata(protocol)),

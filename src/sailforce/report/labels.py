@@ -2,7 +2,19 @@
 
 from __future__ import annotations
 
+from ..robot import LINK_NAMES, Robot
 from ..study import ModelId, Protocol, span_deg
+
+
+def links_label(robot: Robot) -> str:
+    """``"links 25 × 10 mm plain carbon steel"``, or per link where any link has its own section or material."""
+    def one(section, material) -> str:
+        return f"{section.depth * 1e3:g} × {section.thickness * 1e3:g} mm {material.name}"
+
+    if robot.uniform_links:
+        return "links " + one(robot.link_section, robot.link_material)
+    return "links " + "; ".join(f"{n} {one(robot.section(n), robot.material(n))}" for n in LINK_NAMES)
+
 
 #: The models' display colours, one per :class:`~sailforce.study.ModelId`.
 MODEL_COLOURS = {
