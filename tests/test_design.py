@@ -78,6 +78,38 @@ def test_links_limit_when_their_yield_is_low():
     np.testing.assert_allclose(halved.worst, got.worst / 2.0, rtol=CLOSED_FORM_RTOL)
 
 
+def _allowed_along(response, robot, phi, safety_factor=2.0):
+    """The largest hand force along ``phi`` (one per pose) by member_stresses and the bridge, independently of maps."""
+    from sailforce.fem.model import MEMBERS
+    from sailforce.fem.response import member_stresses
+
+    c, s = np.cos(phi), np.sin(phi)
+    stresses = member_stresses(response, c, s)
+    links = np.array([kind != "cell" for *_, kind in MEMBERS])
+    link_limit = (stresses.yield_strength / (safety_factor * stresses.von_mises.max(axis=-1)))[..., links].min(axis=-1)
+    bridge = response.signal("bridge")
+    cell_limit = (robot.loadcell.rated_output_mV_V / np.abs(bridge[..., 0] * c[..., None] + bridge[..., 1] * s[..., None]))
+    return np.minimum(link_limit, cell_limit.min(axis=-1))
+
+
+@pytest.mark.parametrize("keys", [{}, {"joints.model": "bonded"}, {"materials.links.yield_strength": 3e6},
+                                  {"joints.model": "bonded", "materials.links.yield_strength": 2e6}])  # fmt: skip
+def test_overload_worst_direction_is_exact(keys):
+    """The closed-form worst lies below every sampled direction, within cos(2.5 deg) of the 5-deg samples, and is
+    what member_stresses gives along the worst direction it names."""
+    robot = with_keys(Robot(), keys)
+    theta1, theta2 = _poses(40)
+    response = simulate(robot, theta1, theta2)
+    got = overload(response)
+    sampled = got.per_direction.min(axis=-1)
+    assert np.all(got.worst <= sampled * (1 + 1e-12))
+    assert np.all(sampled <= got.worst / math.cos(math.radians(2.5)) * (1 + 1e-12))
+    np.testing.assert_allclose(_allowed_along(response, robot, got.worst_direction), got.worst, rtol=1e-9)
+    k = 11
+    np.testing.assert_allclose(_allowed_along(response, robot, np.full(theta1.shape, got.directions[k])),
+                               got.per_direction[:, k], rtol=1e-12)  # fmt: skip
+
+
 def test_pin_joints_need_no_compensation_and_bonded_joints_do():
     theta1, theta2 = _poses(10)
     pin = compensation_need(simulate(Robot(), theta1, theta2))
