@@ -117,20 +117,26 @@ class Design:
 
     def summary(self) -> dict[str, dict[str, float]]:
         """Worst and median of each map, and the reach."""
-        rows = {
-            "resolution_N": (self.resolution.worst, np.max),
-            "overload_N": (self.overload.worst, np.min),
-            "first_frequency_Hz": (self.modes.frequencies_Hz[:, 0], np.min),
-            "phase_need_deg": (self.need.worst_phase_deg, np.max),
-            "amplitude_need": (self.need.worst_amplitude, np.max),
-            "condition": (self.condition, np.max),
-        }
-        out = {name: {"worst": float(worst(v)), "median": float(np.median(v))} for name, (v, worst) in rows.items()}
-        x, y = forward(self.robot.arm, self.grid.theta1, self.grid.theta2)
-        r = np.hypot(x, y)
-        cell = (self.grid.x[1] - self.grid.x[0]) * (self.grid.y[1] - self.grid.y[0])
-        out["reach_m"] = {"min": float(r.min()), "max": float(r.max()), "area_m2": float(self.grid.mask.sum() * cell)}
-        return out
+        return summarise(self.robot, self.grid, {
+            "resolution_N": self.resolution.worst, "overload_N": self.overload.worst,
+            "first_frequency_Hz": self.modes.frequencies_Hz[:, 0], "phase_need_deg": self.need.worst_phase_deg,
+            "amplitude_need": self.need.worst_amplitude, "condition": self.condition,
+        })  # fmt: skip
+
+
+#: How each map's worst is taken: the largest noise, the smallest overload and frequency ...
+WORST = {"resolution_N": np.max, "overload_N": np.min, "first_frequency_Hz": np.min, "phase_need_deg": np.max,
+         "amplitude_need": np.max, "condition": np.max}  # fmt: skip
+
+
+def summarise(robot: Robot, grid: DesignGrid, maps: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:
+    """Worst (:data:`WORST`) and median of each map ``(P,)``, and the reach of the grid's poses."""
+    out = {name: {"worst": float(WORST[name](v)), "median": float(np.median(v))} for name, v in maps.items()}
+    x, y = forward(robot.arm, grid.theta1, grid.theta2)
+    r = np.hypot(x, y)
+    cell = (grid.x[1] - grid.x[0]) * (grid.y[1] - grid.y[0])
+    out["reach_m"] = {"min": float(r.min()), "max": float(r.max()), "area_m2": float(grid.mask.sum() * cell)}
+    return out
 
 
 def run_design(robot: Robot, grid: DesignGrid | None = None, *, safety_factor: float = DEFAULT_SAFETY_FACTOR,

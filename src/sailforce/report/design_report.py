@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -129,7 +130,7 @@ def design_json(design: Design) -> dict:
     }  # fmt: skip
 
 
-def report_markdown(design: Design, seconds: float) -> str:
+def report_markdown(design: Design, seconds: float, sections: Sequence[str] = ()) -> str:
     s = design.summary()
     robot = design.robot
     limit_names, counts = np.unique(design.overload.limiting_names(), return_counts=True)
@@ -159,8 +160,9 @@ def report_markdown(design: Design, seconds: float) -> str:
         "sensing map S: an ellipse per pose, and its largest semi-axis as a map.",
         "![Resolution](resolution.png)",
         "## Overload",
-        f"The largest hand force, over {design.overload.directions.size} directions, before a cell reaches its "
-        f"rated output or a link reaches its yield strength / {design.safety_factor:g}. Limited by: {limits}.",
+        "The largest hand force in the worst direction (exact: each element's worst direction in closed form) "
+        f"before a cell reaches its rated output or a link reaches its yield strength / {design.safety_factor:g}. "
+        f"Limited by: {limits}.",
         "![Overload](overload.png)",
         "## Compensation need",
         "How far each cell's reading departs from the pin-jointed ideal (g/l_i)·(Jᵀ F)_i: its phase and gain. "
@@ -173,16 +175,18 @@ def report_markdown(design: Design, seconds: float) -> str:
         "## Files\n\n- `design.json`: the summary and, per pose, `theta1_deg`, `theta2_deg`, `resolution_N`, "
         "`overload_N`, `overload_limit`, `first_frequency_Hz`, `phase_need_deg`, `amplitude_need`, `condition`.\n"
         "- `resolution.png`, `overload.png`, `compensation.png`, `modes.png`.",
+        *sections,
     ]) + "\n"  # fmt: skip
 
 
-def write_design(directory: Path, design: Design, seconds: float, dpi: int) -> None:
-    """``design.json``, the figures, ``report.md`` and the self-contained ``report.html`` into ``directory``."""
+def write_design(directory: Path, design: Design, seconds: float, dpi: int, sections: Sequence[str] = ()) -> None:
+    """``design.json``, the figures, ``report.md`` and the self-contained ``report.html`` into ``directory``;
+    ``sections`` (Markdown, a sweep's) are appended to the report."""
     directory.mkdir(parents=True, exist_ok=True)
     write_json(directory / "design.json", design_json(design))
     for name, make in FIGURES.items():
         make(design).savefig(directory / name, dpi=dpi)
-    markdown = report_markdown(design, seconds)
+    markdown = report_markdown(design, seconds, sections)
     with atomic_writer(directory / "report.md") as stream:
         stream.write(markdown)
     with atomic_writer(directory / "report.html") as stream:

@@ -17,7 +17,7 @@ from ..kinematics import SINGULAR_SIN_DELTA
 from ..materials import CARBON_STEEL, SEED_TABLE2_SHEAR_MODULUS
 from ..seed_model import SeedModelResult, phase_pattern
 from ..study import ModelId, Protocol, StudyResult, span_deg
-from .labels import links_label, model_label
+from .labels import links_label, markdown_table, model_label
 from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
 
 #: How far past the fitted Delta range [deg] a validation pose must lie to count as extrapolated.
@@ -51,12 +51,6 @@ def errata(protocol: Protocol) -> list[str]:
     ]
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return "\n".join(lines)
-
-
 def _g(value: float, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
@@ -84,11 +78,11 @@ def _table4_section(result: StudyResult, seed: np.ndarray) -> str:
         "seed does not state its convention; its amplitudes are in N·m per its (unstated) deflection unit, "
         f"ours in N·m per {'m' if result.transduction == 'deflection' else 'mV/V'}, so compare amplitudes by "
         "their shape (normalised in the figure), phases directly.",
-        _table(header, rows),
+        markdown_table(header, rows),
         "![Table 4 as curves](table4.png)",
         _amplitude_shape(result, seed),
         f"### Regressors (smallest order with {criterion} > {result.threshold:g})",
-        _table(["column", "order", "passed", "R²", "adj. R²", "ours (Δ in deg)", "seed"], regs),
+        markdown_table(["column", "order", "passed", "R²", "adj. R²", "ours (Δ in deg)", "seed"], regs),
     ])  # fmt: skip
 
 
@@ -136,7 +130,7 @@ def _rmse_section(result: StudyResult) -> str:
         f"T1 on grid 1 ({protocol.describe_grid(1, validation=True)}), T2 on grid 2 "
         f"({protocol.describe_grid(2, validation=True)}), pooled over poses and the {len(protocol.phi_deg)} force "
         f"angles. The torque amplitudes are F·l3 = {amp[0]:g} N·m and F·l2 = {amp[1]:g} N·m.",
-        _table(["", "T1 [N·m]", "T2 [N·m]", "mean [N·m]", "relative T1 / T2 [%]", "seed T1 / T2"], rows),
+        markdown_table(["", "T1 [N·m]", "T2 [N·m]", "mean [N·m]", "relative T1 / T2 [%]", "seed T1 / T2"], rows),
         "![Compensated validation curves (Fig. 6)](fig6_compensated.png)",
         f"**Extrapolation.** Validation poses beyond the fitted range {low:g}…{high:g}°, where the polynomials "
         f"extrapolate: {extrapolation or 'none lies outside'}.",
@@ -164,9 +158,9 @@ def _beyond_section(result: StudyResult) -> str:
         f"cross-validation of the force error: order {matrix.order} was chosen (CV force RMSE by order: "
         + ", ".join(f"{v:.3g}" for v in matrix.cv_rmse) + " N). All three estimators solve the same 2×2 system at run time.",
         "### Force-vector error on the validation grids",
-        _table(["model", "RMSE ‖F̂ − F‖ [N]", f"% of {protocol.force_N:g} N"], force_rows),
+        markdown_table(["model", "RMSE ‖F̂ − F‖ [N]", f"% of {protocol.force_N:g} N"], force_rows),
         f"### Over the whole workspace, Δ = {span_deg(protocol.workspace_delta_deg)}",
-        _table(["model", f"max inside {fitted} [%]", "max outside [%]", "max [%]"], ws_rows),
+        markdown_table(["model", f"max inside {fitted} [%]", "max outside [%]", "max [%]"], ws_rows),
         "![Force error over the workspace](workspace.png)",
         f"Both fitted compensators are only as good as the Δ range they were calibrated on: outside {fitted} they "
         "extrapolate, and the error grows fast. The last model, the same matrix compensator fitted on a sweep "
@@ -198,7 +192,7 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
               "force RMSE uncomp. / seed / matrix [N]", "Δ-only check: ΔA rel. / ΔP [deg]"]  # fmt: skip
     return "\n\n".join([
         "## How the joint model drives the deviations",
-        _table(header, [summary(main), summary(other), seed_row]),
+        markdown_table(header, [summary(main), summary(other), seed_row]),
         "**With ideal pin joints the linkage is statically determinate**: link l4 is a two-force member, each "
         "driven link carries the constant shear T_i/l_i, and, without crosstalk, the load-cell signal is exactly "
         "proportional to the predicted torque. Table 4 is then constant (P = 0 to rounding) and there is nothing to "

@@ -6,6 +6,12 @@ from ..robot import LINK_NAMES, Robot
 from ..study import ModelId, Protocol, span_deg
 
 
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
+    """A Markdown pipe table."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
+
+
 def links_label(robot: Robot) -> str:
     """``"links 25 × 10 mm plain carbon steel"``, or per link where any link has its own section or material."""
     def one(section, material) -> str:

@@ -13,11 +13,7 @@ from ..io.files import write_json
 from ..seed import SEED_PRESCALE, SEED_RMSE
 from ..seed_model import TARGET_PHASE_RMS_DEG, TARGET_SHAPE_RMS, FamilyFit, SeedModelResult, interior_minimum, shape
 from ..study import StudyResult, table4
-
-
-def _table(header: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
+from .labels import markdown_table
 
 
 def _finite(value: float) -> float | None:
@@ -53,7 +49,7 @@ def _residual_table(fit: FamilyFit) -> str:
     columns = fit.fit.residual_columns
     header = ["Δ [deg]", *columns]
     rows = [[f"{d:g}", *(f"{v:+.3f}" for v in row)] for d, row in zip(fit.table[:, 0], fit.fit.residuals)]
-    return _table(header, rows)
+    return markdown_table(header, rows)
 
 
 def seed_model_section(result: SeedModelResult, main: StudyResult) -> str:
@@ -94,7 +90,7 @@ def seed_model_section(result: SeedModelResult, main: StudyResult) -> str:
         "chosen as physically plausible: lengths ½…2× the default robot's, joint stiffness 0.01…10⁷ N·m/rad "
         "(pin to bonded, fitted in log), the cell kept inside its link, crosstalk ±0.5 of the rated output. "
         f"Targets: phase RMS ≤ {TARGET_PHASE_RMS_DEG:g}° and shape RMS ≤ {100 * TARGET_SHAPE_RMS:g} % per cell.",
-        _table(header, rows),
+        markdown_table(header, rows),
         "![The families against the seed's Table 4](seed_model.png)",
         verdict + " " + _closest_reading(closest),
         "Bounds of the closest fit: " + _bounds(closest) + ".",
@@ -174,7 +170,7 @@ def _corrections(result: SeedModelResult, main: StudyResult) -> list[str]:
         f"{_yes(seed.growing[0])} / {_yes(seed.growing[1])}). This study's {main.robot.joints.label} joints: {ours}.",
         f"**2. With bonded joints, geometry sets the size of the phases**, not the ratio of cell to link stiffness. "
         f"At Δ = {delta_max:g}°, bonded joints:",
-        _table(["variation", "P1 [deg]", "P2 [deg]"], driver_rows),
+        markdown_table(["variation", "P1 [deg]", "P2 [deg]"], driver_rows),
         f"A hundredfold change of the cell's compliance or of the links' modulus keeps P1 within "
         f"{spread(stiffness_rows, 1)} and P2 within {spread(stiffness_rows, 2)}; changes of 20 to 40 % in l2, l3 or "
         f"the cell position move P1 over {spread(geometry_rows, 1)} and P2 over {spread(geometry_rows, 2)}. (With "
