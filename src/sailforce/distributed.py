@@ -79,8 +79,15 @@ def run_tasks(fn: Callable[[Any], Any], items: Sequence[Any], *, workers: int | 
             ) from None
         with client:
             return _on(client, distributed, fn, items, retries, advance)
-    with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=logging.ERROR) as cluster, distributed.Client(cluster) as client:  # fmt: skip
+    import dask
+
+    # Dask sets MALLOC_TRIM_THRESHOLD_ in its workers, which fixes glibc's mmap threshold: every array over 128 kB is
+    # then mapped and unmapped afresh, and a sweep's workers spend a third of their time in page faults (measured:
+    # 0.21 s per variant against 0.13 s).  Its other settings (one BLAS thread per worker) stay.
+    environ = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), \
+            distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                                     silence_logs=logging.CRITICAL) as cluster, distributed.Client(cluster) as client:  # fmt: skip
         return _on(client, distributed, fn, items, retries, advance)
 
 

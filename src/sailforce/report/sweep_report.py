@@ -72,8 +72,8 @@ def sweep_markdown(result: SweepResult) -> str:
         f"{len(result)} variants ({' × '.join(f'{len(a.labels)} {a.name}' for a in result.axes)}), each mapped over its "
         f"own workspace grid, computed in {result.seconds:.1f} s. A variant is **ranked** when its overload is at "
         f"least {req.required_force_N:g} N and its first frequency at least {req.min_frequency_Hz:g} Hz everywhere, "
-        "best resolution first (then price, first frequency, overload); it is on the **Pareto set** when no other variant is at least as good in "
-        "resolution, overload and first frequency and better in one.",
+        "best resolution first (then price, first frequency, overload); it is on the **Pareto set** when no other "
+        "variant is at least as good in resolution, overload and first frequency and better in one.",
         "![Pareto](pareto.png)",
     ]
     if len(ranked):
