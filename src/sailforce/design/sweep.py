@@ -91,23 +91,13 @@ def parse_sweep(text: str, robot: Robot) -> Axis:
         values: list[Any] = items
     else:
         try:
-            values = [float(f"{v:.12g}") for item in items  # 0.1 * 3 is 0.30000000000000004: read as written
-                      for v in (parse_spec(item, key) if ":" in item else [_number(item, key)])]  # fmt: skip
+            # 0.1 * 3 is 0.30000000000000004: read as written
+            values = [float(f"{v:.12g}") for item in items for v in parse_spec(item, key)]
         except SpecError as exc:
             raise DesignError(f"--sweep {exc}") from None
     if len(set(values)) != len(values):
         raise DesignError(f"--sweep {key}: a value appears twice in {spec!r}")
     return Axis(key, tuple(f"{v:g}" if isinstance(v, float) else str(v) for v in values), tuple({key: v} for v in values))
-
-
-def _number(text: str, key: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise SpecError(f"{key}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise SpecError(f"{key}: values must be finite, got {text!r}")
-    return value
 
 
 def read_catalogue(path: str | Path) -> Axis:
