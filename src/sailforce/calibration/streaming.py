@@ -51,6 +51,10 @@ OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
 MOTION_OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "inertial1", "inertial2", "status")
 _STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
 
+#: Receives each chunk of a live stream as it is estimated: the chunk (its ``values`` are the input's numbers,
+#: degrees as in files), the output columns (``fx_N`` ...) and the status codes, one per row, in order.
+RowListener = Callable[[Chunk, dict[str, np.ndarray], np.ndarray], None]
+
 #: Chunks in flight at once: estimating and formatting one chunk (numpy and
 #: Arrow release the GIL) overlaps with parsing the next and writing the last.
 WORKERS = 2
@@ -185,9 +189,11 @@ def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: _ParquetTyp
 
 
 def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: _ParquetTypes | None,
-                  motion: MotionRows | None = None):  # fmt: skip
+                  motion: MotionRows | None = None, on_rows: RowListener | None = None):  # fmt: skip
     """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and its size."""
     columns, status = _estimate(cal, chunk.values, chunk.malformed, loads, motion)
+    if on_rows is not None:
+        on_rows(chunk, columns, status)
     counts = np.bincount(status, minlength=len(STATUS_NAMES))
     if parquet is not None:
         table = parquet.convert(chunk) if chunk.from_csv else chunk.table
@@ -300,7 +306,8 @@ def stream_estimate(
 
 def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], IO[bytes]], *,
                    lowpass: LowPass | None = None, source: str = "the stream", dt: float | None = None,
-                   on_motion: Callable[[MotionStage | None], None] | None = None) -> dict[str, int]:  # fmt: skip
+                   on_motion: Callable[[MotionStage | None], None] | None = None,
+                   on_rows: RowListener | None = None) -> dict[str, int]:  # fmt: skip
     """Live stream: a header line, then one reading per line; each estimate is written and flushed at once.
 
     ``lines`` are raw lines (bytes, line end included).  ``open_output`` is
@@ -312,7 +319,9 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     window is complete; an interrupt writes the rows still waiting, their
     motion unknown, before it ends the stream.  With a dynamic term,
     ``on_motion`` receives the motion stage once the header is read (None
-    when the stream gives no motion), to report its delay.
+    when the stream gives no motion), to report its delay.  ``on_rows``
+    receives each chunk's numbers as it is written (:data:`RowListener`):
+    live displays and Lab Streaming Layer outlets read them there.
     """
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
     lines = iter(lines)
@@ -332,7 +341,7 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     def write(chunk: Chunk, rows: MotionRows | None) -> None:
         nonlocal counts
         loads = _loads(chunk.values, chunk.malformed, lowpass, rows)
-        output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows)
+        output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows)
         out.write(output)
         out.flush()
         counts += chunk_counts

@@ -50,6 +50,7 @@ _COMMAND_MODULES = {
     "export-c": "export_cmd",
     "fit-poly": "fitpoly_cmd",
     "identify": "identify_cmd",
+    "live": "live_cmd",
     "reproduce": "reproduce_cmd",
     "robot": "robot_cmd",
     "simulate": "simulate_cmd",

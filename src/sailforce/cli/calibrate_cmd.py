@@ -13,6 +13,7 @@ from rich.console import Console
 
 from ..calibration.file import Calibration
 from ..calibration.fit import MODEL_KINDS, equivalent_capacity, fit_calibration
+from ..calibration.tare import TARE_MAX_SHIFT, tare
 from ..errors import SailError
 from ..fem.response import TRANSDUCTIONS
 from ..io.files import check_output
@@ -20,22 +21,6 @@ from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, TableError, read_all
 from . import cli
 from ._options import load_robot, robot_option
 from ._progress import progress_bar
-
-#: ``sail tare`` warns when the no-load readings scatter by more than this
-#: fraction of the cell's capacity (standard deviation): the arm was touched,
-#: moved, or the cell is drifting.
-TARE_SPREAD_WARNING = 0.005
-
-#: ``sail tare`` needs at least this many no-load samples: with fewer, the
-#: spread that tells a touched or drifting arm cannot be seen (an HX711 at
-#: 10 Hz gives them in one second).
-MIN_TARE_SAMPLES = 10
-
-#: ``sail tare`` refuses, without --force, new offsets that move by more than
-#: this fraction of a cell's capacity from the calibration's: zero drift of a
-#: load cell is a fraction of a percent, so such a shift means a load on the
-#: arm, a damaged cell or the wrong calibration file.
-TARE_MAX_SHIFT = 0.1
 
 #: Readings and forces beyond this magnitude are refused: a 24-bit ADC gives
 #: 8.4e6 counts, and squares of 1e150 already overflow float64 in the fit.
@@ -235,24 +220,13 @@ def tare_command(calibration, noload, output, force):
     check_output(output, {"the no-load recording": noload})
     cal = Calibration.load(calibration)
     values = _clean_rows(noload, ("load1", "load2"), "A no-load recording")
-    loads = np.column_stack([values["load1"], values["load2"]])
-    if len(loads) < MIN_TARE_SAMPLES:
-        raise SailError(f"{noload}: {len(loads)} sample(s); a tare needs at least {MIN_TARE_SAMPLES}, so that their "
-                        "spread shows whether the arm was still. Record for longer")  # fmt: skip
-    offsets, spread = loads.mean(axis=0), loads.std(axis=0, ddof=1)
-    shift = np.abs(offsets - np.asarray(cal.offsets)) / np.asarray(cal.capacity)
-    if not force and np.any(shift > TARE_MAX_SHIFT):
-        i = int(np.argmax(shift))
-        raise SailError(f"{noload}: cell {i + 1}'s offset would move by {shift[i]:.0%} of its capacity "
-                        f"({cal.offsets[i]:.6g} -> {offsets[i]:.6g} {cal.load_unit}), more than {TARE_MAX_SHIFT:.0%}: "
-                        "was something touching the arm, or is this the wrong calibration file? --force accepts it")  # fmt: skip
+    result = tare(cal, np.column_stack([values["load1"], values["load2"]]), noload)
+    if not force and result.too_far:
+        raise SailError(f"{noload}: {result.shift_warnings(cal.load_unit)[0]} --force accepts it")
+    offsets, spread = result.offsets, result.spread
     cal.with_offsets(offsets).save(output)
     console = Console()
-    console.print(f"wrote {output}: offsets {offsets[0]:.6g}, {offsets[1]:.6g} {cal.load_unit} from {len(loads)} samples "
+    console.print(f"wrote {output}: offsets {offsets[0]:.6g}, {offsets[1]:.6g} {cal.load_unit} from {result.samples} samples "
                   f"(were {cal.offsets[0]:.6g}, {cal.offsets[1]:.6g}); spread ±{spread[0]:.3g}, ±{spread[1]:.3g}")  # fmt: skip
-    noisy = [i + 1 for i in range(2) if spread[i] > TARE_SPREAD_WARNING * cal.capacity[i]]
-    if noisy:
-        Console(stderr=True).print(
-            f"[bold yellow]warning:[/bold yellow] cell(s) {', '.join(map(str, noisy))} scatter by more than "
-            f"{TARE_SPREAD_WARNING:.1%} of capacity: was the arm touched or moving during the no-load recording?"
-        )
+    if warning := result.spread_warning():
+        Console(stderr=True).print(f"[bold yellow]warning:[/bold yellow] {warning}", highlight=False)

@@ -1,0 +1,147 @@
+"""``sail live``: the arm and its force in a browser page, live, from a serial port, a replay, LSL or the simulated arm."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from contextlib import ExitStack
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+from .. import kernel
+from ..calibration.file import Calibration
+from ..errors import SailError
+from ..live.recorder import RECORD_FORMATS
+from . import cli
+from ._options import FINITE, PrimaryOption, lowpass_options, make_lowpass, robot_option
+
+#: The addresses that only this machine reaches.
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+
+
+@cli.command("live")
+@click.option("--calibration", "cal_path", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Calibration JSON.")
+@click.argument("source", metavar="IN.csv", required=False, type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
+@click.option("--replay", is_flag=True, help="Replay IN.csv at the pace of its t_s column (or of --sample-rate-Hz).")
+@click.option("--speed", cls=PrimaryOption, type=FINITE, default=1.0, show_default=True, help="Replay speed (2: twice as fast).")
+@click.option("--serial", "serial_port", default=None, metavar="PORT", help="Read the readings from a serial port.")
+@click.option("--baud", type=click.IntRange(1), default=115200, show_default=True, help="Serial baud rate.")
+@click.option("--simulate", is_flag=True, help="The simulated arm: reaching movements with a hand pulling toward each "
+              "target, 1 kHz, through the synthetic noise model (`make live` calibrates for it).")
+@robot_option
+@click.option("--rig", type=click.IntRange(0), default=1, show_default=True,
+              help="--simulate: which simulated rig (its cells' offsets), as in `sail simulate-motion --rig`.")
+@click.option("--lsl-in", "lsl_in", default=None, metavar="NAME",
+              help="Read the readings from the Lab Streaming Layer stream NAME (theta1_deg, theta2_deg, load1, load2[, t_s]).")
+@click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
+              help="Also publish the force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, status).")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to serve on; 0.0.0.0 lets other machines see the page (and warns).")
+@click.option("--port", type=click.IntRange(0, 65535), default=8050, show_default=True, help="Port (0: any free one).")
+@click.option("--record-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("recordings"), show_default=True,
+              help="Where the record button's files and saved calibrations go (named by the server, never overwritten).")
+@click.option("--record-format", type=click.Choice(RECORD_FORMATS), default="csv", show_default=True,
+              help="The record button's file format (Parquet is converted when a recording stops).")
+@click.option("-v", "--verbose", is_flag=True, help="Log every request and refused message.")
+@lowpass_options
+def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, robot_path, rig, lsl_in, lsl_out, host, port,
+                 record_dir, record_format, verbose, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
+    """Serve a live page of the arm and its force at http://127.0.0.1:8050/.
+
+    \b
+    One source of readings:
+      IN.csv --replay     a recording, at the pace of its t_s column
+      --serial PORT       the rig's serial stream (the lines `sail estimate --serial` reads)
+      -                   standard input
+      --lsl-in NAME       a Lab Streaming Layer stream
+      --simulate          the simulated arm (`make live`)
+
+    The page draws the arm to scale with the force at A, shows |F|, its
+    angle, fx, fy and the status, each cell's reading against its
+    capacity, and fx, fy and |F| over the last 10 s; it updates over a
+    WebSocket at up to 50 Hz with the newest row, however fast the input.
+    Every row is estimated by `sail estimate`'s own stream code.  Its tare
+    button averages the next N samples into new offsets and uses them at
+    once; "save calibration" writes them to a new file in --record-dir.
+    Its record button writes the estimated rows (the columns `sail
+    estimate` writes) to a new file in --record-dir.  Commands need the
+    token embedded in the page.  Ctrl-C stops, closing any recording.
+    """
+    kernel.prefer_backend("numpy")
+    console = Console(stderr=True)
+    given = [name for name, on in (("IN.csv", source is not None), ("--serial", serial_port is not None),
+                                   ("--simulate", simulate), ("--lsl-in", lsl_in is not None)) if on]  # fmt: skip
+    if len(given) != 1:
+        raise click.UsageError("give one source: IN.csv --replay, '-' (stdin), --serial PORT, --lsl-in NAME or --simulate"
+                               + (f" (not {' and '.join(given)})" if given else ""))  # fmt: skip
+    if source is not None and str(source) != "-" and not replay:
+        raise click.UsageError(f"{source} is a file: add --replay to play it back at its own pace")
+    if replay and (source is None or str(source) == "-"):
+        raise click.UsageError("--replay plays back a file: give IN.csv")
+    if robot_path is not None and not simulate:
+        raise click.UsageError("--robot sets up the simulated arm: use it with --simulate")
+    if not speed > 0:
+        raise click.BadParameter(f"{speed:g}: a replay speed is a positive number (1 is real time)", param_hint="--speed")
+    cal = Calibration.load(cal_path)
+    lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order, rate_alone=True)
+    dt = None if sample_rate_hz is None else 1.0 / sample_rate_hz
+    logging.basicConfig(format="sail live: %(message)s", level=logging.INFO if verbose else logging.WARNING)
+    if host not in LOOPBACK:
+        console.print(f"[bold yellow]warning:[/bold yellow] serving on {host}: anyone who can reach this machine can "
+                      "watch the stream, and anyone who also reads the page's token can tare and record", highlight=False)  # fmt: skip
+
+    from ..live.pipeline import LivePipeline
+    from ..live.server import LiveServer, serve
+
+    with ExitStack() as stack:
+        blocks, label = _source(stack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, sample_rate_hz)
+        pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt)
+        server = LiveServer(pipeline, record_dir=record_dir, record_format=record_format, calibration_path=cal_path)
+        if lsl_out is not None:
+            from ..live.lsl import Outlet
+
+            pipeline.listen(Outlet(lsl_out))
+            console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
+        pipeline.start()
+
+        def ready(url: str) -> None:
+            click.echo(f"sail live: serving {url} ({label}); Ctrl-C stops", err=False)
+
+        try:
+            asyncio.run(serve(server, host, port, ready))
+        finally:
+            stopped = server.stop_recording()
+            if stopped:
+                console.print(f"kept the recording {record_dir / stopped}", highlight=False)
+            for path in server.saved:
+                console.print(f"saved calibration {path}", highlight=False)
+
+
+def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, rate_hz):
+    """The chosen source's blocks, and a label for people."""
+    from ..live import sources
+
+    if simulate:
+        from ._options import load_robot
+
+        return sources.simulated_arm(load_robot(robot_path), rig=rig, speed=speed), f"simulated arm (rig {rig})"
+    if serial_port is not None:
+        return sources.stamped(stack.enter_context(sources.serial_lines(serial_port, baud))), f"serial port {serial_port}"
+    if lsl_in is not None:
+        from ..live.lsl import inlet_blocks
+
+        return inlet_blocks(lsl_in), f"LSL stream {lsl_in}"
+    if str(source) == "-":
+        return sources.stamped(sources.stdin_lines()), "stdin"
+    if not source.is_file():
+        raise SailError(f"{source}: no such file to replay")
+    return sources.replay(source, speed=speed, rate_hz=rate_hz if _lacks_time(source) else None), f"replay of {source.name}"
+
+
+def _lacks_time(path: Path) -> bool:
+    from ..io.tables import READING_COLUMNS, csv_header
+
+    header = csv_header(path, READING_COLUMNS)
+    return header is None or "t_s" not in header.names

@@ -1,0 +1,179 @@
+"""Where live readings come from: blocks of raw lines, each line with the wall-clock time of its reading.
+
+Every source is an iterator of blocks: lists of ``(line, stamp)``, ``line``
+the raw bytes of one CSV line (line end included), ``stamp`` the
+:func:`time.time` [s] at which the reading was taken (when it arrived, for
+a serial port or stdin; when it was due, for a replay; the sample's own
+timestamp, for a Lab Streaming Layer inlet).  The first block starts with
+the header line.  A block holds the lines that arrived together, so that
+one estimate serves them all: at 1 kHz, replays come in
+:data:`REPLAY_TICK_S` ticks.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SailError
+from ..io.tables import READING_COLUMNS, TableError, read_header, read_line
+from ..motion.reaching import reaching, record
+from ..robot import Robot
+from ..synthetic import NoiseModel, session_offsets
+
+Block = list[tuple[bytes, float]]
+
+#: Replays and the simulated arm wake this often and hand over every line that has come due [s]: 200 wake-ups a
+#: second instead of one per line at 1 kHz, for at most 5 ms of added delay.
+REPLAY_TICK_S = 0.005
+
+#: The simulated arm's sampling rate [Hz], that of the recordings ``sail simulate-motion`` makes.
+SIMULATED_RATE_HZ = 1000.0
+
+#: The simulated arm's hand pulls toward each reach's target with this spring [N/m] (``simulate-motion --session task``).
+SIMULATED_HAND_STIFFNESS = 100.0
+
+#: Columns of the simulated arm's lines: what a lab records, and the true hand force beside it.
+SIMULATED_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "true_fx_N", "true_fy_N")
+
+
+def _paced(lines: Iterator[tuple[bytes, float]], speed: float, clock: Callable[[], float] = time.time) -> Iterator[Block]:
+    """Blocks of the lines whose due time (seconds from the start, at ``speed``) has come, every tick."""
+    start = clock()
+    block: Block = []
+    for line, due in lines:
+        when = start + due / speed
+        now = clock()
+        if when > now and block:
+            yield block
+            block = []
+            now = clock()
+        if when > now + REPLAY_TICK_S:
+            time.sleep(when - now)  # the next line is not due: sleep until it is, a tick at least
+        elif when > now:
+            time.sleep(REPLAY_TICK_S)
+        block.append((line, when))
+    if block:
+        yield block
+
+
+def replay(path: Path, *, speed: float = 1.0, rate_hz: float | None = None) -> Iterator[Block]:
+    """The lines of a CSV recording, each when it is due: at its ``t_s`` (or at ``rate_hz``), ``speed`` times as fast.
+
+    The header is read and checked at once (the error comes here, not on
+    the reader's thread).  A line whose ``t_s`` is not a number (or goes
+    back in time) is handed over with the line before it: the estimator
+    gives it its status.
+    """
+    if not speed > 0 or not math.isfinite(speed):
+        raise SailError(f"--speed {speed:g}: a replay speed is a positive number (1 is real time)")
+    try:
+        stream = open(path, "rb")
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
+    try:
+        first = read_line(stream)
+        if not first:
+            raise TableError(f"{path}: empty; expected a header line naming the columns, then one reading per line")
+        header = read_header(path, first, READING_COLUMNS)
+        if "t_s" not in header.names and rate_hz is None:
+            raise TableError(f"{path}: no t_s column to replay it by; give --sample-rate-Hz, the rate it was recorded at")
+    except BaseException:
+        stream.close()
+        raise
+    column = header.names.index("t_s") if rate_hz is None else None
+
+    def due() -> Iterator[tuple[bytes, float]]:
+        with stream:
+            yield first, 0.0
+            t0, last, index = None, 0.0, 0
+            while line := read_line(stream):
+                if column is None:
+                    last = index / rate_hz  # type: ignore[operator]
+                else:
+                    t = _field(line, column)
+                    if math.isfinite(t):
+                        t0 = t if t0 is None else t0
+                        last = max(last, t - t0)
+                index += 1
+                yield line, last
+
+    return _paced(due(), speed)
+
+
+def _field(line: bytes, column: int) -> float:
+    """The number in one field of a CSV line, NaN if there is none."""
+    try:
+        text = line.decode("utf-8", errors="replace")
+        fields = text.split(",") if '"' not in text else next(csv.reader([text]))
+        return float(fields[column])
+    except (ValueError, IndexError, csv.Error):
+        return math.nan
+
+
+def simulated_arm(robot: Robot, *, rig: int = 1, speed: float = 1.0, noise: NoiseModel = NoiseModel()) -> Iterator[Block]:
+    """An endless session of the simulated rig: reaching movements with a hand pulling toward each target.
+
+    The rig of ``sail simulate-motion --rig`` (its cells' offsets), 8 reaches
+    of 0.3 m that close on themselves (8 x 135 deg = 3 turns), repeated with
+    a new noise draw each time, at :data:`SIMULATED_RATE_HZ`; a calibration
+    of the same rig (``sail simulate-motion --session static --rig N``,
+    ``sail calibrate``) reads them.
+    """
+    offsets = session_offsets(robot, noise, rig)
+    motion = reaching(robot, sample_rate_hz=SIMULATED_RATE_HZ)
+    period = motion.t[-1] + 1.0 / SIMULATED_RATE_HZ
+
+    def lines() -> Iterator[tuple[bytes, float]]:
+        yield (",".join(SIMULATED_COLUMNS) + "\n").encode(), 0.0
+        for loop in range(sys.maxsize):
+            rec = record(robot, motion, hand_stiffness=SIMULATED_HAND_STIFFNESS, noise=noise, seed=loop, offsets=offsets)
+            t = rec.t + loop * period
+            table = np.column_stack([t, np.degrees(rec.theta), rec.loads, rec.force])
+            text = io.StringIO()
+            np.savetxt(text, table, fmt=["%.4f", "%.6f", "%.6f", "%.0f", "%.0f", "%.4f", "%.4f"], delimiter=",")
+            for line, when in zip(text.getvalue().encode().splitlines(keepends=True), t):
+                yield line, float(when)
+
+    return _paced(lines(), speed)
+
+
+@contextmanager
+def serial_lines(port_name: str, baud: int):
+    """Raw lines from a serial port, until it ends (hang-up, cable pulled); needs the ``serial`` extra."""
+    from .._extras import require
+
+    serial = require("serial", "serial", "--serial")
+    try:
+        port = serial.serial_for_url(port_name, baudrate=baud, timeout=None)
+    except (serial.SerialException, ValueError) as exc:
+        raise TableError(f"--serial {port_name}: cannot open it ({exc})") from None
+
+    def lines() -> Iterator[bytes]:
+        try:
+            while line := read_line(port):
+                yield line
+        except serial.SerialException:
+            return
+
+    with port:
+        yield lines()
+
+
+def stdin_lines() -> Iterator[bytes]:
+    """Raw lines from standard input, until it ends."""
+    return iter(lambda: read_line(sys.stdin.buffer), b"")
+
+
+def stamped(lines: Iterator[bytes]) -> Iterator[Block]:
+    """Blocks of one line each, stamped with their arrival time: for sources that block on each line."""
+    for line in lines:
+        yield [(line, time.time())]

@@ -1,0 +1,226 @@
+// sail live: the page's side of the WebSocket (sailforce/live/server.py).  No library, nothing from the network.
+"use strict";
+
+const TOKEN = document.querySelector('meta[name="sail-token"]').content;
+const $ = (id) => document.getElementById(id);
+const STATUS_CLASS = { ok: "ok", extrapolated: "warn", "motion-unknown": "warn", saturated: "bad", singular: "bad", invalid: "bad" };
+const COLOURS = { fx: "#1f77b4", fy: "#d62728", f: "#222" };
+
+let hello = null;          // the server's description of the arm and cells
+let latest = null;         // the newest row
+let points = [];           // [stamp s, fx, fy, |F|], the last history_s seconds
+let dirty = false;
+let recording = null;
+let socket = null;
+// Latency of each shown row: the page's clock when it drew the row, less the row's reading time [ms].
+window.sailLatency = [];
+const MAX_LATENCIES = 100000;
+
+function fmt(value, digits) {
+  return value === null || value === undefined ? "–" : value.toFixed(digits);
+}
+
+function setText(id, text) {
+  const node = $(id);
+  if (node.textContent !== text) node.textContent = text;
+}
+
+function connect() {
+  socket = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
+  socket.onopen = () => { $("connection").textContent = "live"; $("connection").className = "badge on"; };
+  socket.onclose = () => {
+    $("connection").textContent = "reconnecting"; $("connection").className = "badge off";
+    setTimeout(connect, 1000);
+  };
+  socket.onmessage = (event) => {
+    const message = JSON.parse(event.data);
+    if (message.type === "hello") onHello(message);
+    else if (message.type === "update") onUpdate(message);
+    else if (message.type === "result") onResult(message);
+  };
+}
+
+function onHello(message) {
+  hello = message;
+  points = [];
+  $("source").textContent = `${message.source}` + (message.calibration ? ` · ${message.calibration}` : "") +
+    (message.dynamics ? " · dynamic term on" : "");
+  showOffsets(message.offsets);
+  dirty = true;
+}
+
+function showOffsets(offsets) {
+  if (hello) setText("offsets", offsets.map((o) => o.toPrecision(7)).join(", ") + ` ${hello.load_unit}`);
+}
+
+function onUpdate(message) {
+  const s = message.sample;
+  if (s) {
+    latest = s;
+    setText("force-N", fmt(s.force_N, 2));
+    setText("angle-deg", fmt(s.angle_deg, 1));
+    setText("fx-N", fmt(s.fx_N, 2));
+    setText("fy-N", fmt(s.fy_N, 2));
+    setText("theta-deg", `${fmt(s.theta1_deg, 2)}, ${fmt(s.theta2_deg, 2)}`);
+    setText("status", s.status);
+    $("status").className = "status " + (STATUS_CLASS[s.status] || "");
+    for (const i of [0, 1]) showCell(i, s.cells[i], s.status === "saturated");
+  }
+  for (const p of message.points) points.push(p);
+  if (points.length) {
+    const oldest = points[points.length - 1][0] - (hello ? hello.history_s : 10);
+    let cut = 0;
+    while (cut < points.length && points[cut][0] < oldest) cut++;
+    if (cut) points.splice(0, cut);
+  }
+  setText("counts", Object.entries(message.counts).map(([k, v]) => `${k} ${v.toLocaleString()}`).join(" · ") || "–");
+  setText("rate", `${Math.round(message.rate_hz)} rows/s` + (message.ended ? " · stream ended" : ""));
+  showOffsets(message.offsets);
+  recording = message.recording;
+  $("record").textContent = recording ? "stop recording" : "record";
+  $("record").classList.toggle("active", !!recording);
+  setText("recording", recording ? `recording ${recording.file}: ${recording.rows.toLocaleString()} rows, ${recording.seconds.toFixed(0)} s` : "");
+  if (message.error) showMessage(`the stream stopped: ${message.error}`, true);
+  dirty = true;
+}
+
+function showCell(i, fraction, saturated) {
+  const bar = $(`cell${i + 1}-bar`);
+  if (fraction === null) { bar.style.width = "0"; setText(`cell${i + 1}-pct`, "–"); return; }
+  const f = Math.max(-1, Math.min(1, fraction));
+  bar.style.left = `${50 + Math.min(0, f) * 50}%`;
+  bar.style.width = `${Math.abs(f) * 50}%`;
+  bar.classList.toggle("saturated", saturated || Math.abs(fraction) >= 1);
+  setText(`cell${i + 1}-pct`, `${(fraction * 100).toFixed(1)} %`);
+}
+
+function showMessage(text, error) {
+  $("message").textContent = text;
+  $("message").className = "small" + (error ? " error" : "");
+}
+
+function onResult(message) {
+  if (!message.ok) { showMessage(`${message.name}: ${message.error}`, true); return; }
+  if (message.name === "tare") {
+    const unit = message.unit;
+    showMessage(`tared on ${message.samples} samples: offsets ${message.offsets.map((o) => o.toPrecision(7)).join(", ")} ${unit}` +
+      ` (were ${message.previous.map((o) => o.toPrecision(7)).join(", ")}; spread ±${message.spread.map((o) => o.toPrecision(3)).join(", ±")}).` +
+      (message.warnings.length ? " Warning: " + message.warnings.join(" ") : " Save calibration keeps them."), message.warnings.length > 0);
+    showOffsets(message.offsets);
+    $("save-calibration").disabled = false;
+  } else if (message.name === "save-calibration") {
+    showMessage(`saved ${message.file}`, false);
+  } else if (message.name === "record") {
+    if (message.stopped) showMessage(`recorded ${message.stopped}`, false);
+  }
+}
+
+function command(name, args) {
+  if (!socket || socket.readyState !== WebSocket.OPEN) { showMessage("not connected", true); return; }
+  socket.send(JSON.stringify(Object.assign({ type: "command", token: TOKEN, name }, args || {})));
+}
+
+$("tare").onclick = () => {
+  const samples = parseInt($("tare-samples").value, 10);
+  showMessage(`taring on the next ${samples} samples: do not touch the handle`, false);
+  command("tare", { samples });
+};
+$("save-calibration").onclick = () => command("save-calibration");
+$("record").onclick = () => command("record", { on: !recording });
+
+// -- drawing ----------------------------------------------------------------------------------
+function drawArm() {
+  const canvas = $("arm"), g = canvas.getContext("2d");
+  const w = canvas.width, h = canvas.height;
+  g.clearRect(0, 0, w, h);
+  if (!hello) return;
+  const arm = hello.arm, reach = arm.l2 + arm.l3;
+  const scale = 0.46 * Math.min(w, h) / reach;       // px per m
+  const x = (p) => w / 2 + p[0] * scale, y = (p) => h / 2 - p[1] * scale;
+  g.strokeStyle = "#e3e7ee"; g.lineWidth = 1;
+  g.beginPath(); g.arc(w / 2, h / 2, reach * scale, 0, 2 * Math.PI); g.stroke();
+  g.beginPath(); g.moveTo(0, h / 2); g.lineTo(w, h / 2); g.moveTo(w / 2, 0); g.lineTo(w / 2, h); g.stroke();
+  if (!latest || !latest.joints) return;
+  const j = latest.joints;
+  const link = (a, b, colour, width) => {
+    g.strokeStyle = colour; g.lineWidth = width; g.lineCap = "round";
+    g.beginPath(); g.moveTo(x(a), y(a)); g.lineTo(x(b), y(b)); g.stroke();
+  };
+  link(j.B, j.P1, "#5b6b82", 7);   // l1, driven by θ1
+  link(j.B, j.P2, "#5b6b82", 7);   // l2, driven by θ2
+  link(j.P1, j.P3, "#9aa6b8", 4);  // l4
+  link(j.P2, j.A, "#9aa6b8", 5);   // l3 through P3 to A
+  [[j.B, j.P1, 0], [j.B, j.P2, 1]].forEach(([a, b, i]) => {  // the cells, at mid-link
+    const f = latest.cells[i], m = [(a[0] + b[0]) / 2, (a[1] + b[1]) / 2];
+    g.fillStyle = f === null ? "#ccc" : Math.abs(f) >= 1 ? "#c0392b" : `hsl(${120 - 120 * Math.min(1, Math.abs(f))}, 70%, 42%)`;
+    g.fillRect(x(m) - 7, y(m) - 7, 14, 14);
+  });
+  for (const p of [j.B, j.P1, j.P2, j.P3]) { g.fillStyle = "#1d2430"; g.beginPath(); g.arc(x(p), y(p), 4, 0, 2 * Math.PI); g.fill(); }
+  g.fillStyle = "#1d2430"; g.beginPath(); g.arc(x(j.A), y(j.A), 7, 0, 2 * Math.PI); g.fill();
+  if (latest.fx_N !== null && latest.fy_N !== null) {
+    const nPerPx = arrowScale();
+    const tip = [x(j.A) + latest.fx_N / nPerPx, y(j.A) - latest.fy_N / nPerPx];
+    arrow(g, x(j.A), y(j.A), tip[0], tip[1], "#c0392b");
+    setText("scale", `arrow: ${(60 * nPerPx).toFixed(0)} N per 60 px · circle: reach ${reach.toFixed(2)} m`);
+  }
+}
+
+function arrowScale() {  // N per px: 60 px for the larger of 10 N and the largest |F| plotted
+  let big = 10;
+  for (const p of points) if (p[3] !== null && p[3] > big) big = p[3];
+  return big / 60;
+}
+
+function arrow(g, x0, y0, x1, y1, colour) {
+  const a = Math.atan2(y1 - y0, x1 - x0), len = Math.hypot(x1 - x0, y1 - y0);
+  g.strokeStyle = colour; g.fillStyle = colour; g.lineWidth = 3;
+  g.beginPath(); g.moveTo(x0, y0); g.lineTo(x1, y1); g.stroke();
+  if (len < 4) return;
+  g.beginPath(); g.moveTo(x1, y1);
+  g.lineTo(x1 - 12 * Math.cos(a - 0.4), y1 - 12 * Math.sin(a - 0.4));
+  g.lineTo(x1 - 12 * Math.cos(a + 0.4), y1 - 12 * Math.sin(a + 0.4));
+  g.closePath(); g.fill();
+}
+
+function drawPlot() {
+  const canvas = $("plot"), g = canvas.getContext("2d");
+  const w = canvas.width, h = canvas.height, left = 50, right = 90, top = 10, bottom = 24;
+  g.clearRect(0, 0, w, h);
+  if (!points.length || !hello) return;
+  const span = hello.history_s, end = points[points.length - 1][0];
+  let big = 5;
+  for (const p of points) for (const v of [p[1], p[2], p[3]]) if (v !== null && Math.abs(v) > big) big = Math.abs(v);
+  big = Math.ceil(big / 5) * 5;
+  const px = (t) => left + (w - left - right) * (1 - (end - t) / span);
+  const py = (v) => top + (h - top - bottom) * (0.5 - v / (2 * big));
+  g.strokeStyle = "#e3e7ee"; g.fillStyle = "#6b7585"; g.font = "12px system-ui"; g.lineWidth = 1;
+  for (const v of [-big, -big / 2, 0, big / 2, big]) {
+    g.beginPath(); g.moveTo(left, py(v)); g.lineTo(w - right, py(v)); g.stroke();
+    g.fillText(`${v.toFixed(0)} N`, 4, py(v) + 4);
+  }
+  for (let s = 0; s <= span; s += 2) g.fillText(`-${s} s`, px(end - s) - 12, h - 6);
+  [[1, "fx", "fx"], [2, "fy", "fy"], [3, "f", "|F|"]].forEach(([k, colour, label], row) => {
+    g.strokeStyle = COLOURS[colour]; g.lineWidth = k === 3 ? 2 : 1.5; g.beginPath();
+    let pen = false;
+    for (const p of points) {
+      if (p[k] === null) { pen = false; continue; }
+      if (pen) g.lineTo(px(p[0]), py(p[k])); else g.moveTo(px(p[0]), py(p[k]));
+      pen = true;
+    }
+    g.stroke();
+    g.fillStyle = COLOURS[colour]; g.fillText(label, w - right + 10, top + 16 + 18 * row);
+  });
+}
+
+function frame() {
+  if (dirty) {
+    dirty = false;
+    drawArm();
+    drawPlot();
+    if (latest && latest.stamp && window.sailLatency.length < MAX_LATENCIES) window.sailLatency.push(Date.now() - latest.stamp * 1000);
+  }
+  requestAnimationFrame(frame);
+}
+
+connect();
+requestAnimationFrame(frame);
