@@ -9,7 +9,7 @@ VECTORS := $(BUILD)/vectors
 #: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
 EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
 
-.PHONY: demo test lint docs c-test c-default cross cross-test arm-toolchain qemu-arm valgrind bench fuzz install clean
+.PHONY: demo test lint docs c-test c-default cross cross-test arm-toolchain qemu-arm valgrind chromium live bench fuzz install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -24,8 +24,17 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/sail reproduce -o $(DEMO_DIR)
 
-test: $(STAMP) lint c-test
+test: $(STAMP) lint c-test chromium
 	$(PY) -m pytest
+
+# the simulated arm on the live page (sail live --simulate), calibrated as a lab would: a static session of the same
+# rig, `sail calibrate` with the robot file's dynamic term; open the URL it prints
+LIVE_DIR ?= $(BUILD)/live
+live: $(STAMP)
+	mkdir -p $(LIVE_DIR)
+	$(VENV)/bin/sail simulate-motion --session static --rig 1 -o $(LIVE_DIR)/static.csv
+	$(VENV)/bin/sail calibrate $(LIVE_DIR)/static.csv --model matrix --dynamics prior -q -o $(LIVE_DIR)/calibration.json
+	$(VENV)/bin/sail live --calibration $(LIVE_DIR)/calibration.json --simulate --record-dir $(LIVE_DIR)/recordings
 
 # ruff on everything Python; mypy on the public API (pyproject.toml lists the modules)
 lint: $(STAMP)
@@ -58,6 +67,12 @@ qemu-arm:
 	  echo "installing qemu-system-arm (Debian)"; \
 	  $(APT) update -qq && $(APT) install -y -qq qemu-system-arm > /dev/null; }
 
+# Debian's chromium for the live page's browser tests (Playwright drives it; it downloads no browser)
+chromium:
+	@command -v chromium > /dev/null || { \
+	  echo "installing chromium (Debian), for the live page's browser tests"; \
+	  $(APT) update -qq && $(APT) install -y -qq chromium > /dev/null; }
+
 valgrind:
 	@command -v valgrind > /dev/null || { \
 	  echo "installing valgrind (Debian)"; \
@@ -80,7 +95,7 @@ cross-test: $(STAMP) arm-toolchain qemu-arm
 	ctest --test-dir $(BUILD)/cross-test --output-on-failure
 
 # every benchmark; callgrind counts x86-64 instructions, QEMU Thumb-2 ones (both installed when missing)
-bench: $(STAMP) valgrind arm-toolchain qemu-arm
+bench: $(STAMP) valgrind arm-toolchain qemu-arm chromium
 	$(PY) bench/run.py
 
 # Random and mutated files through every reader (tables in file and stream mode, fit-poly tables, robot and

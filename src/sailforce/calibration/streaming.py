@@ -20,7 +20,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import IO
+from typing import Protocol
 
 import numpy as np
 import pyarrow as pa
@@ -50,6 +50,14 @@ OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
 #: With a dynamic term: the subtracted inertial and gravity load of each cell, in reading units, before status.
 MOTION_OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "inertial1", "inertial2", "status")
 _STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
+
+class ByteSink(Protocol):
+    """Where a live stream's rows go: a binary file, stdout, or a live server's recorder."""
+
+    def write(self, data: bytes, /) -> object: ...
+
+    def flush(self) -> object: ...
+
 
 #: Receives each chunk of a live stream as it is estimated: the chunk (its ``values`` are the input's numbers,
 #: degrees as in files), the output columns (``fx_N`` ...) and the status codes, one per row, in order.
@@ -304,7 +312,7 @@ def stream_estimate(
     return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}
 
 
-def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], IO[bytes]], *,
+def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], ByteSink], *,
                    lowpass: LowPass | None = None, source: str = "the stream", dt: float | None = None,
                    on_motion: Callable[[MotionStage | None], None] | None = None,
                    on_rows: RowListener | None = None) -> dict[str, int]:  # fmt: skip

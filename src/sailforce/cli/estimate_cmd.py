@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import sys
-from contextlib import contextmanager, nullcontext
+from contextlib import ExitStack, nullcontext
 from pathlib import Path
 
 import click
@@ -13,7 +13,7 @@ from .. import kernel
 from ..calibration.file import Calibration
 from ..calibration.streaming import estimate_lines, stream_estimate, table_motion
 from ..io.files import atomic_writer, check_output, table_format
-from ..io.tables import READING_COLUMNS, TableError, csv_header, input_size, is_parquet, parquet_schema, read_line
+from ..io.tables import READING_COLUMNS, csv_header, input_size, is_parquet, parquet_schema
 from . import cli
 from ._options import lowpass_options, make_lowpass
 from ._progress import progress_bar
@@ -27,18 +27,27 @@ from ._progress import progress_bar
 @click.option("--serial", "serial_port", default=None, metavar="PORT",
               help="Read the live stream from a serial port (pyserial URL or device).")
 @click.option("--baud", type=click.IntRange(1), default=115200, show_default=True, help="Serial baud rate.")
+@click.option("--lsl-in", "lsl_in", default=None, metavar="NAME",
+              help="Read the live stream from the Lab Streaming Layer stream NAME (theta1_deg, theta2_deg, load1, load2[, t_s]).")
+@click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
+              help="Publish a live stream's force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, "
+                   "status), stamped with the readings' times.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
-def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass_hz, sample_rate_hz, lowpass_order):
+def estimate_command(cal_path, source, output, serial_port, baud, lsl_in, lsl_out, quiet, lowpass_hz, sample_rate_hz,
+                     lowpass_order):  # fmt: skip
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
     Output: each input line as it was, then fx_N, fy_N, force_N, angle_deg
     and status (ok, singular, saturated, extrapolated, invalid), one row per
     input line, in order; status is always a row's last field.  IN.csv '-'
-    reads a live stream from stdin; --serial reads one from a port; each
+    reads a live stream from stdin; --serial reads one from a port, --lsl-in
+    from a Lab Streaming Layer stream (until its outlet closes); each
     estimate is then written and flushed as its line arrives, and Ctrl-C
     ends the recording, keeping what was written.  A summary of the
-    statuses goes to stderr.  It runs the numpy force kernel (SAILFORCE_KERNEL=compiled
+    statuses goes to stderr.  --lsl-out also publishes a live stream's
+    estimates on Lab Streaming Layer (status as its code; the stream's
+    description names the codes).  It runs the numpy force kernel (SAILFORCE_KERNEL=compiled
     picks numba): numba's LLVM costs memory and nothing here is faster for it.
 
     \b
@@ -55,11 +64,15 @@ def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass
     """
     kernel.prefer_backend("numpy")
     console = Console(stderr=True)
-    if serial_port is not None and source is not None:
-        raise click.UsageError(f"give either IN.csv ({source}) or --serial {serial_port}, not both")
-    if source is None and serial_port is None:
-        raise click.UsageError("give IN.csv, '-' for stdin, or --serial PORT")
-    live = serial_port is not None or str(source) == "-"
+    given = [name for name, on in (("IN.csv", source is not None), ("--serial", serial_port is not None),
+                                   ("--lsl-in", lsl_in is not None)) if on]  # fmt: skip
+    if len(given) > 1:
+        raise click.UsageError(f"give one input, not {' and '.join(given)}")
+    if not given:
+        raise click.UsageError("give IN.csv, '-' for stdin, --serial PORT or --lsl-in NAME")
+    live = serial_port is not None or lsl_in is not None or str(source) == "-"
+    if lsl_out is not None and not live:
+        raise click.UsageError("--lsl-out publishes a live stream ('-', --serial or --lsl-in); a file has no live time")
     check_output(output, {"the input table": source, "the --calibration file": cal_path})
     if output is not None and str(output) != "-":
         table_format(output, parquet=not live)
@@ -73,7 +86,7 @@ def estimate_command(cal_path, source, output, serial_port, baud, quiet, lowpass
     if cal.dynamics is not None and not live:
         _warn_if_static(console, cal, source)
     if live:
-        counts = _live(cal, source, output, serial_port, baud, lowpass, dt, console)
+        counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console)
     else:
         unit = "rows" if is_parquet(source) else "bytes"
         with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
@@ -94,10 +107,13 @@ def _warn_if_static(console, cal, source) -> None:
                       "rates): the estimates are static, right only while the arm is at rest", highlight=False)  # fmt: skip
 
 
-def _live(cal, source, output, serial_port, baud, lowpass, dt, console):
+def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console):
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
+    from ..live import sources
+    from ..live.pipeline import StampedLines, rows_of
+
     to_file = output is not None and str(output) != "-"
-    name = f"serial port {serial_port}" if serial_port is not None else "stdin"
+    name = f"serial port {serial_port}" if serial_port is not None else f"LSL stream {lsl_in}" if lsl_in else "stdin"
 
     def report(stage) -> None:
         if stage is None:
@@ -108,31 +124,23 @@ def _live(cal, source, output, serial_port, baud, lowpass, dt, console):
             console.print(f"dynamic term on: each row comes out {late * 1e3:g} ms late (half the rate window), "
                           "when its window is complete", highlight=False)  # fmt: skip
 
-    with (atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer)) as out:
-        with _line_source(serial_port, baud) as lines:
-            return estimate_lines(cal, lines, lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report)
+    stamps = StampedLines()
+    on_rows = None
+    if lsl_out is not None:
+        from ..live.lsl import Outlet
 
+        outlet = Outlet(lsl_out)
+        on_rows = lambda chunk, columns, status: outlet(rows_of(stamps, chunk, columns, status))
+        console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
+    with ExitStack() as stack:
+        if lsl_in is not None:
+            from ..live.lsl import inlet_blocks
 
-@contextmanager
-def _line_source(serial_port, baud):
-    """Raw lines from stdin or from a serial port, until it ends (EOF, hang-up, cable pulled)."""
-    if serial_port is None:
-        yield iter(lambda: read_line(sys.stdin.buffer), b"")
-        return
-    from .._extras import require
-
-    serial = require("serial", "serial", "--serial")
-    try:
-        port = serial.serial_for_url(serial_port, baudrate=baud, timeout=None)
-    except (serial.SerialException, ValueError) as exc:
-        raise TableError(f"--serial {serial_port}: cannot open it ({exc})") from None
-    with port:
-        yield _serial_lines(port, serial.SerialException)
-
-
-def _serial_lines(port, closed_error):
-    try:
-        while line := read_line(port):
-            yield line
-    except closed_error:
-        return
+            blocks = inlet_blocks(lsl_in)
+        elif serial_port is not None:
+            blocks = sources.stamped(stack.enter_context(sources.serial_lines(serial_port, baud)))
+        else:
+            blocks = sources.stamped(sources.stdin_lines())
+        out = stack.enter_context(atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer))
+        return estimate_lines(cal, stamps.lines(blocks), lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report,
+                              on_rows=on_rows)  # fmt: skip

@@ -32,6 +32,7 @@ from ..calibration.streaming import estimate_lines
 from ..calibration.tare import Tare, tare
 from ..errors import SailError
 from ..io.tables import Chunk, TableError
+from .recorder import Recorder
 from .sources import Block
 
 log = logging.getLogger(__name__)
@@ -110,7 +111,7 @@ class _Output:
         self.header: bytes | None = None
         self.expect_header = True
         self.lock = threading.Lock()
-        self.recorder = None
+        self.recorder: Recorder | None = None
 
     def write(self, data: bytes) -> int:
         if self.expect_header:

@@ -108,10 +108,10 @@ class LiveServer:
         self._loop = asyncio.get_running_loop()
         self._wake = asyncio.Event()
         self.state.notify = self._notify
-        app["broadcaster"] = asyncio.create_task(self._broadcast())
+        self._broadcaster = asyncio.create_task(self._broadcast())
 
     async def _cleanup(self, app: web.Application) -> None:
-        app["broadcaster"].cancel()
+        self._broadcaster.cancel()
         for ws in list(self._clients):
             await ws.close()
 
