@@ -59,6 +59,11 @@ class ByteSink(Protocol):
     def flush(self) -> object: ...
 
 
+def _discarding(sink: ByteSink) -> bool:
+    """Whether a sink throws the rows' bytes away for now (a live page that is not recording): then they are not made."""
+    return bool(getattr(sink, "discarding", False))
+
+
 #: Receives each chunk of a live stream as it is estimated: the chunk (its ``values`` are the input's numbers,
 #: degrees as in files), the output columns (``fx_N`` ...) and the status codes, one per row, in order.
 RowListener = Callable[[Chunk, dict[str, np.ndarray], np.ndarray], None]
@@ -329,7 +334,9 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     ``on_motion`` receives the motion stage once the header is read (None
     when the stream gives no motion), to report its delay.  ``on_rows``
     receives each chunk's numbers as it is written (:data:`RowListener`):
-    live displays and Lab Streaming Layer outlets read them there.
+    live displays and Lab Streaming Layer outlets read them there.  A sink
+    whose ``discarding`` attribute is true gets no bytes while it is (the
+    rows are not formatted).
     """
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
     lines = iter(lines)
@@ -349,6 +356,12 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     def write(chunk: Chunk, rows: MotionRows | None) -> None:
         nonlocal counts
         loads = _loads(chunk.values, chunk.malformed, lowpass, rows)
+        if _discarding(out):  # the numbers alone, for the listener
+            columns, status = _estimate(cal, chunk.values, chunk.malformed, loads, rows)
+            if on_rows is not None:
+                on_rows(chunk, columns, status)
+            counts += np.bincount(status, minlength=len(STATUS_NAMES))
+            return
         output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows)
         out.write(output)
         out.flush()

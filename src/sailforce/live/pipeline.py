@@ -16,8 +16,10 @@ unknown) and a new one starts on the same stream, the header fed again.
 from __future__ import annotations
 
 import logging
+import math
 import queue
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
@@ -43,6 +45,10 @@ QUEUE_BLOCKS = 8192
 
 #: One estimate takes at most this many lines: a backlog is worked off in pieces that keep the page fresh.
 MAX_BLOCK_LINES = 2000
+
+#: One estimate at most this often [s]: lines that come one by one (a serial port at 1 kHz) are gathered into
+#: blocks of about ten, each estimate's fixed cost shared, for at most 10 ms of added delay.
+MIN_ESTIMATE_PERIOD_S = 0.01
 
 _END = object()
 
@@ -126,6 +132,11 @@ class _Output:
     def flush(self) -> None:
         pass
 
+    @property
+    def discarding(self) -> bool:
+        """With no recording on, the header is all this sink wants (``estimate_lines`` then formats no row)."""
+        return not self.expect_header and self.recorder is None
+
 
 class LivePipeline:
     """A live source estimated on its own threads; see the module docstring.
@@ -153,6 +164,7 @@ class LivePipeline:
         self.ended = threading.Event()  #: set when the source has ended and every row is out
         self.rows = 0
         self._source_done = False
+        self._last_block = -math.inf
 
     # -- the user's side -----------------------------------------------------------------------
     @property
@@ -209,7 +221,11 @@ class LivePipeline:
             with self._lock:
                 if self._next_cal is not None:
                     return
+            wait = self._last_block + MIN_ESTIMATE_PERIOD_S - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
             item = self._queue.get()
+            self._last_block = time.monotonic()
             lines: Block = []
             while True:
                 if item is _END or isinstance(item, BaseException):
