@@ -190,7 +190,7 @@ function drawPlot() {
   const span = hello.history_s, end = points[points.length - 1][0];
   let big = 5;
   for (const p of points) for (const v of [p[1], p[2], p[3]]) if (v !== null && Math.abs(v) > big) big = Math.abs(v);
-  big = Math.ceil(big / 5) * 5;
+  big = Math.ceil(big / 10) * 10;  // gridlines at whole multiples of 5 N
   const px = (t) => left + (w - left - right) * (1 - (end - t) / span);
   const py = (v) => top + (h - top - bottom) * (0.5 - v / (2 * big));
   g.strokeStyle = "#e3e7ee"; g.fillStyle = "#6b7585"; g.font = "12px system-ui"; g.lineWidth = 1;
