@@ -470,3 +470,28 @@ def test_page_in_chromium_shows_the_force_tares_records_and_flags_singular(cals,
             assert page.text_content("#force-N") == "–"
             page.screenshot(path=str(tmp_path / "live.png"), full_page=True)
     assert (tmp_path / "live.png").stat().st_size > 10_000
+
+
+def test_live_refuses_unclear_sources_and_warns_beyond_loopback(cals, tmp_path):
+    d, static, _ = cals
+    source = _mixed(tmp_path, static.offsets)
+    for args, message in (([], "give one source"), ([source], "add --replay"), (["--simulate", source, "--replay"], "not IN.csv and"),
+                          (["--replay"], "give one source"), ([source, "--replay", "--speed", "0"], "replay speed")):
+        result = CliRunner().invoke(cli, ["live", "--calibration", str(d / "static.json"), *map(str, args)])
+        assert result.exit_code == 2 and message in result.output, (args, result.output)
+    from sailforce.live.browser import live_process
+
+    with live_process(["--calibration", d / "static.json", "--simulate", "--host", "0.0.0.0", "--record-dir", tmp_path]) as live:
+        assert "0.0.0.0" in live.url
+        deadline = time.monotonic() + WAIT_S
+        while "warning" not in live.stderr and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert "anyone who can reach this machine" in live.stderr
+
+
+def test_lsl_inlet_that_finds_nothing_says_so():
+    pytest.importorskip("pylsl")
+    from sailforce.live.lsl import inlet_blocks
+
+    with pytest.raises(SailError, match="no Lab Streaming Layer stream of that name answered within 0.5 s"):
+        inlet_blocks(f"sail-nobody-{uuid.uuid4().hex[:8]}", timeout=0.5)

@@ -98,7 +98,11 @@ def _labels(info) -> list[str]:
 
 
 def inlet_blocks(name: str, *, timeout: float = RESOLVE_TIMEOUT_S) -> Iterator[Block]:
-    """The readings of the LSL stream ``name`` as blocks of stamped CSV lines (:mod:`sailforce.live.sources`)."""
+    """The readings of the LSL stream ``name`` as blocks of stamped CSV lines (:mod:`sailforce.live.sources`).
+
+    The stream is found and its channels checked at once (the error comes
+    here, not on a reader's thread).
+    """
     pylsl = _pylsl("--lsl-in")
     found = pylsl.resolve_byprop("name", name, 1, timeout)
     if not found:
@@ -115,18 +119,22 @@ def inlet_blocks(name: str, *, timeout: float = RESOLVE_TIMEOUT_S) -> Iterator[B
         labels = list(INLET_COLUMNS[:count])
     stamp_column = "t_s" not in labels
     header = ",".join(labels + (["t_s"] if stamp_column else [])) + "\n"
-    yield [(header.encode(), time.time())]
-    offset = _clock_offset(pylsl)
-    while True:
-        try:
-            samples, stamps = inlet.pull_chunk(timeout=PULL_TIMEOUT_S)
-        except pylsl.util.LostError:
-            return  # the outlet has closed: the stream has ended
-        if not samples:
-            continue
-        block = []
-        for sample, stamp in zip(samples, stamps):
-            values = list(sample) + ([stamp] if stamp_column else [])
-            line = ",".join("" if not math.isfinite(v) else repr(float(v)) for v in values) + "\n"
-            block.append((line.encode(), stamp - offset))
-        yield block
+
+    def blocks() -> Iterator[Block]:
+        yield [(header.encode(), time.time())]
+        offset = _clock_offset(pylsl)
+        while True:
+            try:
+                samples, stamps = inlet.pull_chunk(timeout=PULL_TIMEOUT_S)
+            except pylsl.util.LostError:
+                return  # the outlet has closed: the stream has ended
+            if not samples:
+                continue
+            block = []
+            for sample, stamp in zip(samples, stamps):
+                values = list(sample) + ([stamp] if stamp_column else [])
+                line = ",".join("" if not math.isfinite(v) else repr(float(v)) for v in values) + "\n"
+                block.append((line.encode(), stamp - offset))
+            yield block
+
+    return blocks()

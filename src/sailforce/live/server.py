@@ -86,6 +86,7 @@ class LiveServer:
         self.last_tare: Tare | None = None
         self.saved: list[Path] = []
         self._clients: dict[web.WebSocketResponse, int] = {}
+        self._tasks: set[asyncio.Task] = set()
         self._wake: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._static = resources.files("sailforce.live") / "static"
@@ -176,8 +177,14 @@ class LiveServer:
             log.warning("refused the command %r from %s: no valid token", name, peer)
             await ws.send_str(_dumps({"type": "result", "name": name, "ok": False, "error": "refused: no valid token"}))
             return
+        task = asyncio.create_task(self._reply(ws, name, message))  # a tare waits for its samples: keep reading meanwhile
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _reply(self, ws: web.WebSocketResponse, name: str, message: dict) -> None:
         result = await self._run(name, message)
-        await ws.send_str(_dumps({"type": "result", "name": name} | result))
+        if not ws.closed:
+            await ws.send_str(_dumps({"type": "result", "name": name} | result))
 
     async def _broadcast(self) -> None:
         assert self._wake is not None
