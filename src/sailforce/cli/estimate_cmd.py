@@ -67,7 +67,7 @@ def estimate_command(cal_path, source, output, serial_port, baud, lsl_in, lsl_ou
     given = [name for name, on in (("IN.csv", source is not None), ("--serial", serial_port is not None),
                                    ("--lsl-in", lsl_in is not None)) if on]  # fmt: skip
     if len(given) > 1:
-        raise click.UsageError(f"give one input, not {' and '.join(given)}")
+        raise click.UsageError(f"give one input, not both {' and '.join(given)}")
     if not given:
         raise click.UsageError("give IN.csv, '-' for stdin, --serial PORT or --lsl-in NAME")
     live = serial_port is not None or lsl_in is not None or str(source) == "-"

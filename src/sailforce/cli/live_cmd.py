@@ -92,6 +92,9 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
         console.print(f"[bold yellow]warning:[/bold yellow] serving on {host}: anyone who can reach this machine can "
                       "watch the stream, and anyone who also reads the page's token can tare and record", highlight=False)  # fmt: skip
 
+    from .._extras import require
+
+    require("aiohttp", "live", "sail live")
     from ..live.pipeline import LivePipeline
     from ..live.server import LiveServer, serve
 
