@@ -7,12 +7,14 @@ import asyncio
 import csv
 import json
 import logging
-import os
+import subprocess
+import sys
 import time
 import uuid
 
 import numpy as np
 import pyarrow.parquet as pq
+import pylsl
 import pytest
 from click.testing import CliRunner
 
@@ -145,6 +147,15 @@ def test_tare_averages_the_next_samples_and_estimates_with_them(cals, tmp_path):
     force = np.concatenate([b.columns["force_N"] for b in got.blocks])
     assert force.size == len(rows)
     assert np.all(force[:n] > 1) and np.all(force[-20:] == 0.0)  # a tare takes effect between blocks
+
+
+def test_a_header_without_the_readings_stops_the_stream_with_its_error(cals, tmp_path):
+    _, static, _ = cals
+    source = _table(tmp_path / "short.csv", [(0.0, *POSE, 1)], header="t_s,theta1_deg,theta2_deg,load1")
+    pipeline, got = _run_pipeline(static, _blocks(source))
+    pipeline.start()
+    assert pipeline.ended.wait(WAIT_S) and not got.blocks
+    assert "missing column(s) load2" in str(pipeline.error)
 
 
 def test_tare_refuses_too_few_usable_samples(cals, tmp_path):
@@ -324,7 +335,6 @@ def test_malformed_websocket_messages_are_logged_and_ignored(cals, tmp_path, cap
 
 # -- Lab Streaming Layer ----------------------------------------------------------------------------
 def test_lsl_outlet_carries_force_status_and_reading_times():
-    pylsl = pytest.importorskip("pylsl")
     from sailforce.live.lsl import OUTLET_CHANNELS, Outlet
 
     name = f"sail-test-{uuid.uuid4().hex[:8]}"
@@ -360,10 +370,6 @@ def test_lsl_outlet_carries_force_status_and_reading_times():
 
 def test_estimate_lsl_in_to_lsl_out_round_trip(cals, tmp_path):
     """Readings on an LSL outlet, through `sail estimate --lsl-in --lsl-out`, come back as sail estimate's forces."""
-    pylsl = pytest.importorskip("pylsl")
-    import subprocess
-    import sys
-
     d, static, _ = cals
     source = _mixed(tmp_path, static.offsets)
     stream_estimate(static, source, tmp_path / "estimate.csv")
@@ -408,19 +414,16 @@ def test_estimate_lsl_in_to_lsl_out_round_trip(cals, tmp_path):
 
 
 # -- the page in a real browser -------------------------------------------------------------------------
-def _chromium_or_skip():
+def _chromium():
     from sailforce.live.browser import system_chromium
 
     if system_chromium() is None:
-        if os.environ.get("CI"):
-            pytest.fail("no Chromium: `make test` installs Debian's (make chromium)")
-        pytest.skip("no Chromium on this machine (`make chromium` installs it)")
-    pytest.importorskip("playwright")
+        pytest.fail("no Chromium on this machine: `make test` installs Debian's (`make chromium`)")
 
 
 def test_page_in_chromium_shows_the_force_tares_records_and_flags_singular(cals, tmp_path):
     """Replay at 1 kHz: the readouts, the latency, record, tare, a singular row, a screenshot."""
-    _chromium_or_skip()
+    _chromium()
     from sailforce.live.browser import browser_page, latencies_ms, live_process
 
     d, static, _ = cals
@@ -490,7 +493,6 @@ def test_live_refuses_unclear_sources_and_warns_beyond_loopback(cals, tmp_path):
 
 
 def test_lsl_inlet_that_finds_nothing_says_so():
-    pytest.importorskip("pylsl")
     from sailforce.live.lsl import inlet_blocks
 
     with pytest.raises(SailError, match="no Lab Streaming Layer stream of that name answered within 0.5 s"):

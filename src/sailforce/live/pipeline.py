@@ -164,6 +164,7 @@ class LivePipeline:
         self.ended = threading.Event()  #: set when the source has ended and every row is out
         self.rows = 0
         self._source_done = False
+        self._restarting = False
         self._last_block = -math.inf
 
     # -- the user's side -----------------------------------------------------------------------
@@ -220,6 +221,7 @@ class LivePipeline:
         while True:
             with self._lock:
                 if self._next_cal is not None:
+                    self._restarting = True
                     return
             wait = self._last_block + MIN_ESTIMATE_PERIOD_S - time.monotonic()
             if wait > 0:
@@ -254,13 +256,13 @@ class LivePipeline:
                     self._cal, self._next_cal = self._next_cal or self._cal, None
                     cal = self._cal
                 self.output.expect_header = True
-                before = self.rows
+                before, self._restarting = self.rows, False
                 try:
                     estimate_lines(cal, self._lines(), lambda: self.output, lowpass=self._lowpass, source=self.source,
                                    dt=self._dt, on_rows=self._on_rows)  # fmt: skip
                 except TableError:
-                    if self.rows == before and self._stamps.header is not None and not self._source_done:
-                        continue  # a new calibration before any row of this run
+                    if self.rows == before and self._restarting:
+                        continue  # a new calibration came before any row of this run
                     if self.rows == before and self._source_done and self.error is not None:
                         break  # the source failed: that is the error to report
                     raise
