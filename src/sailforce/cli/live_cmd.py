@@ -44,7 +44,8 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
               help="Where the record button's files and saved calibrations go (named by the server, never overwritten).")
 @click.option("--record-format", type=click.Choice(RECORD_FORMATS), default="csv", show_default=True,
               help="The record button's file format (Parquet is converted when a recording stops).")
-@click.option("-v", "--verbose", is_flag=True, help="Log every request and refused message.")
+@click.option("-v", "--verbose", is_flag=True,
+              help="Also log pages connecting and commands carried out (refused and malformed messages always are).")
 @lowpass_options
 def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, robot_path, rig, lsl_in, lsl_out, host, port,
                  record_dir, record_format, verbose, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip

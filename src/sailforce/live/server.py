@@ -150,6 +150,7 @@ class LiveServer:
         await ws.prepare(request)
         await ws.send_str(_dumps(self._hello()))
         self._clients[ws] = -1
+        log.info("a page connected from %s (%d open)", request.remote, len(self._clients))
         self._notify()
         try:
             async for message in ws:
@@ -244,13 +245,16 @@ class LiveServer:
     async def _run(self, name: str, args: dict) -> dict:
         try:
             if name == "tare":
-                return {"ok": True} | await self._tare(args)
-            if name == "save-calibration":
-                return {"ok": True} | self._save_calibration()
-            return {"ok": True} | self._record(args)
+                result = await self._tare(args)
+            elif name == "save-calibration":
+                result = self._save_calibration()
+            else:
+                result = self._record(args)
         except (CommandError, SailError, OSError) as exc:
             log.warning("command %s failed: %s", name, exc)
             return {"ok": False, "error": str(exc)}
+        log.info("command %s: %s", name, _dumps(result))
+        return {"ok": True} | result
 
     async def _tare(self, args: dict) -> dict:
         samples = args.get("samples", DEFAULT_TARE_SAMPLES)
