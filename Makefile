@@ -9,7 +9,7 @@ VECTORS := $(BUILD)/vectors
 #: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
 EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
 
-.PHONY: demo test lint docs c-test c-default cross cross-test arm-toolchain qemu-arm valgrind chromium live bench fuzz install clean
+.PHONY: install-ccx demo test lint docs c-test c-default cross cross-test arm-toolchain qemu-arm valgrind chromium live bench fuzz install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -21,10 +21,10 @@ $(STAMP): $(PY) pyproject.toml
 
 install: $(STAMP)
 
-demo: $(STAMP)
+demo: $(STAMP) install-ccx
 	$(VENV)/bin/sail reproduce -o $(DEMO_DIR)
 
-test: $(STAMP) lint c-test chromium
+test: $(STAMP) lint c-test chromium install-ccx
 	$(PY) -m pytest
 
 # the simulated arm on the live page (sail live --simulate), calibrated as a lab would: a static session of the same
@@ -72,6 +72,12 @@ chromium:
 	@command -v chromium > /dev/null || { \
 	  echo "installing chromium (Debian), for the live page's browser tests"; \
 	  $(APT) update -qq && $(APT) install -y -qq chromium > /dev/null; }
+
+# CalculiX for the solid model (sail solid, solid-sweep, cell-fit; its tests)
+install-ccx:
+	@command -v ccx > /dev/null || { \
+	  echo "installing calculix-ccx (Debian), for the solid model"; \
+	  $(APT) update -qq && $(APT) install -y -qq calculix-ccx > /dev/null; }
 
 valgrind:
 	@command -v valgrind > /dev/null || { \
