@@ -300,6 +300,24 @@ def table4(robot: Robot, transduction: str = "deflection", *, protocol: Protocol
     return _table4(sweeps, phi, protocol.force_N, robot.arm)
 
 
+def table4_from_rows(arm, protocol: Protocol, sweep1_rows: np.ndarray, sweep2_rows: np.ndarray) -> np.ndarray:
+    """Seed Table 4 from any model's readings per unit (Fx, Fy) over the protocol's two sweeps.
+
+    ``sweepK_rows`` is ``(n_poses, 2, 2)``: cell i's reading per unit F_j at each pose of sweep K, in the
+    protocol's order (the solid model's, :mod:`sailforce.solid.sweep`).  Same columns as :func:`table4`.
+    """
+    columns = []
+    for i, rows in enumerate((sweep1_rows, sweep2_rows)):
+        theta1, theta2 = protocol.sweep_poses(i + 1)
+        order = np.argsort(theta1 - theta2)
+        amplitude, phase = amplitude_phase(np.asarray(rows)[order, i], torque_rows(arm, theta1[order], theta2[order])[:, i])
+        columns.append((np.degrees((theta1 - theta2)[order]), amplitude, np.degrees(phase)))
+    if not np.allclose(columns[0][0], columns[1][0]):
+        raise ValueError("the two sweeps must cover the same delta values to share Table 4 rows")
+    (delta_deg, a1, p1), (_, a2, p2) = columns
+    return np.column_stack([delta_deg, a1, p1, a2, p2])
+
+
 def _least_squares_scale(signal: np.ndarray, torque: np.ndarray) -> float:
     """The k minimising sum (k s - T)^2: the seed's pre-scaling constant, fitted."""
     return float(np.sum(signal * torque) / np.sum(signal * signal))

@@ -44,6 +44,7 @@ EXIT_TERMINATED = 143  #: 128 + SIGTERM
 #: ``sail estimate`` does not pay for the plotting and FEM imports.
 _COMMAND_MODULES = {
     "calibrate": "calibrate_cmd",
+    "cell-fit": "solid_cmd",
     "demo": "demo_cmd",
     "design": "design_cmd",
     "estimate": "estimate_cmd",
@@ -56,6 +57,8 @@ _COMMAND_MODULES = {
     "simulate": "simulate_cmd",
     "simulate-motion": "simulate_motion_cmd",
     "statics": "statics_cmd",
+    "solid": "solid_cmd",
+    "solid-sweep": "solid_cmd",
     "stress": "stress_cmd",
     "tare": "calibrate_cmd",
 }

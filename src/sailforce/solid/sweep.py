@@ -1,0 +1,196 @@
+"""Solid poses in bulk: one task per pose, cached on disk, run here or on a Dask cluster.
+
+A pose's task meshes, solves and parses (:func:`solve_task`); it carries the
+robot as its robot-file tables, so it pickles small and any worker with
+sailforce and ccx can run it.  Results are cached as JSON files named by the
+SHA-256 of everything that decides them (:func:`task_key`): the robot's tables,
+the pose, the mesh size, 2-D or 3-D, the cell's calibrated depth and
+:data:`MODEL_VERSION`.  A rerun solves only the poses whose key is new; the
+client writes the cache (workers need not share its disk), each file
+atomically, so a killed sweep leaves no half-written entry.
+
+Failures: :func:`sailforce.distributed.run_tasks` retries a task that raised
+or whose worker died; a pose that still fails comes back with its error in
+:attr:`SweepResult.failures`, never dropped.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..distributed import DEFAULT_RETRIES, run_tasks
+from ..io.files import atomic_writer
+from ..io.robotfile import robot_data, robot_from_data
+from ..robot import Robot
+from .arm import SolidResponse, check_joints, solve_pose
+from .cell import CellDepth, calibrate_depth
+
+#: Bump when a change to the solid model changes its results: every cached pose is then solved again.
+MODEL_VERSION = 1
+#: The cache directory when none is given: $SAIL_CACHE_DIR, else $XDG_CACHE_HOME/sailforce/solid.
+CACHE_ENV = "SAIL_CACHE_DIR"
+
+
+def default_cache_dir() -> Path:
+    """``$SAIL_CACHE_DIR``, else ``$XDG_CACHE_HOME/sailforce/solid`` (``~/.cache/sailforce/solid``)."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "sailforce" / "solid"
+
+
+@dataclass(frozen=True)
+class SolidSettings:
+    """How the solid is built: element size [m], 2-D or swept 3-D."""
+
+    mesh_size: float = 0.002
+    solid: bool = False
+
+    def as_dict(self) -> dict:
+        return {"mesh_size": self.mesh_size, "solid": self.solid}
+
+
+@dataclass(frozen=True)
+class PoseTask:
+    """One pose to solve: the robot's tables, the pose [rad], the settings, the cell depth [m]."""
+
+    robot: dict
+    theta1: float
+    theta2: float
+    settings: SolidSettings
+    cell_depth: float
+
+    @property
+    def key(self) -> str:
+        return task_key(self)
+
+
+def task_key(task: PoseTask) -> str:
+    """SHA-256 of everything that decides a pose's result (module docstring)."""
+    content = {"version": MODEL_VERSION, "robot": task.robot, "pose": [repr(task.theta1), repr(task.theta2)],
+               "settings": task.settings.as_dict(), "cell_depth": repr(task.cell_depth)}  # fmt: skip
+    return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()
+
+
+def solve_task(task: PoseTask) -> dict:
+    """Solve one pose (runs on a worker): the :class:`SolidResponse` as a dict."""
+    robot = robot_from_data(task.robot)
+    response = solve_pose(robot, task.theta1, task.theta2, cell_depth=task.cell_depth,
+                          mesh_size=task.settings.mesh_size, solid=task.settings.solid)  # fmt: skip
+    return response.as_dict()
+
+
+def cell_depth(robot: Robot, settings: SolidSettings, cache_dir: Path | None) -> CellDepth:
+    """The calibrated cell depth (:func:`sailforce.solid.cell.calibrate_depth`), cached like the poses."""
+    data = robot_data(robot)["loadcells"], robot_data(robot)["materials"]["loadcells"]
+    key = hashlib.sha256(json.dumps({"version": MODEL_VERSION, "cell": data, "settings": settings.as_dict()},
+                                    sort_keys=True).encode()).hexdigest()  # fmt: skip
+    path = cache_dir / f"cell-{key}.json" if cache_dir is not None else None
+    if path is not None and path.exists():
+        try:
+            return CellDepth(**json.loads(path.read_text()))
+        except (ValueError, TypeError):
+            pass  # a damaged entry is solved again and replaced
+    depth = calibrate_depth(robot.loadcell, settings.mesh_size)
+    if path is not None:
+        _store(path, depth.__dict__)
+    return depth
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Every pose's response (None where it failed), which came from the cache, and the failures' errors."""
+
+    poses: tuple[tuple[float, float], ...]
+    responses: tuple[SolidResponse | None, ...]
+    cached: int
+    failures: dict[int, str] = field(default_factory=dict)  #: pose index -> error
+    depth: CellDepth | None = None
+
+    @property
+    def complete(self) -> bool:
+        return not self.failures
+
+
+def run_poses(robot: Robot, poses, settings: SolidSettings = SolidSettings(), *, cache_dir: Path | None = None,
+              workers: int | None = None, scheduler: str | None = None, retries: int = DEFAULT_RETRIES,
+              advance: Callable[[float], None] | None = None, solver: Callable[[PoseTask], dict] = solve_task) -> SweepResult:  # fmt: skip
+    """Solve ``robot`` at every (theta1, theta2) [rad] of ``poses``; cached ones are read, the rest run as tasks."""
+    check_joints(robot)
+    advance = advance or (lambda amount: None)
+    poses = tuple((float(a), float(b)) for a, b in poses)
+    depth = cell_depth(robot, settings, cache_dir)
+    data = robot_data(robot)
+    tasks = [PoseTask(data, a, b, settings, depth.depth) for a, b in poses]
+    responses: list[SolidResponse | None] = [None] * len(tasks)
+    todo = []
+    for k, task in enumerate(tasks):
+        entry = _load(cache_dir / f"{task.key}.json") if cache_dir is not None else None
+        if entry is not None:
+            responses[k] = entry
+            advance(1)
+        else:
+            todo.append(k)
+    failures = {}
+    outcomes = run_tasks(solver, [tasks[k] for k in todo], workers=workers, scheduler=scheduler, retries=retries,
+                         advance=advance)  # fmt: skip
+    for k, outcome in zip(todo, outcomes):
+        if outcome.ok:
+            responses[k] = SolidResponse.from_dict(outcome.value)
+            if cache_dir is not None:
+                _store(cache_dir / f"{tasks[k].key}.json", outcome.value)
+        else:
+            failures[k] = str(outcome.error)
+    return SweepResult(poses, tuple(responses), len(tasks) - len(todo), failures, depth)
+
+
+def _load(path: Path) -> SolidResponse | None:
+    try:
+        return SolidResponse.from_dict(json.loads(path.read_text()))
+    except FileNotFoundError:
+        return None
+    except (ValueError, KeyError, TypeError):
+        return None  # damaged: solved again, and the new result replaces it
+
+
+def _store(path: Path, value: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_writer(path) as stream:
+        json.dump(value, stream)
+
+
+def seed_poses(protocol) -> tuple[list[tuple[float, float]], tuple[slice, slice]]:
+    """The protocol's two sweeps as one pose list [rad], and the slice of each sweep in it."""
+    poses = []
+    for cell in (1, 2):
+        theta1, theta2 = protocol.sweep_poses(cell)
+        poses += list(zip(theta1.tolist(), theta2.tolist()))
+    n1 = protocol.sweep_poses(1)[0].size
+    return poses, (slice(0, n1), slice(n1, len(poses)))
+
+
+def read_poses(path: Path) -> list[tuple[float, float]]:
+    """Poses [rad] from a CSV file with columns ``theta1_deg, theta2_deg`` (a header row, then one pose per row)."""
+    from ..io.files import read_numeric_csv
+
+    names, table = read_numeric_csv(path, min_columns=2)
+    try:
+        i, j = names.index("theta1_deg"), names.index("theta2_deg")
+    except ValueError:
+        raise ValueError(f"{path}: expected columns theta1_deg and theta2_deg, found {', '.join(names)}") from None
+    return [(math.radians(a), math.radians(b)) for a, b in table[:, [i, j]].tolist()]
+
+
+def response_rows(result: SweepResult, indices: slice, reading: str = "deflection") -> np.ndarray | None:
+    """``(n, 2, 2)`` of ``reading`` over the poses ``indices``, or None if any of them failed."""
+    chosen = result.responses[indices]
+    if any(r is None for r in chosen):
+        return None
+    return np.stack([getattr(r, reading) for r in chosen if r is not None])
