@@ -63,7 +63,10 @@ def run_tasks(fn: Callable[[Any], Any], items: Sequence[Any], *, workers: int | 
     if workers is None and scheduler is None:
         outcomes = []
         for item in items:
-            outcomes.append(Outcome(fn(item)))
+            try:
+                outcomes.append(Outcome(fn(item)))
+            except Exception as exc:  # reported with its item, as on a cluster
+                outcomes.append(Outcome(error=f"{type(exc).__name__}: {exc}"))
             advance(1)
         return outcomes
     if workers is not None and workers < 1:
