@@ -26,7 +26,6 @@ joints_choice = click.option("--joints", type=click.Choice(("pin", "bonded")), d
                              help="Passive-joint model; overrides the robot file (the solid offers pin and bonded).")  # fmt: skip
 mesh_option = click.option("--mesh-mm", type=click.FloatRange(0.25, 50.0), default=DEFAULT_MESH_MM, show_default=True,
                            help="Element size [mm] (finer across the load cells: three elements through their depth).")  # fmt: skip
-solid_option = click.option("--3d", "three_d", is_flag=True, help="A swept 3-D mesh instead of 2-D plane stress.")
 cache_option = click.option("--cache-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
                             help="Where solved poses are cached. Default: $SAIL_CACHE_DIR, else ~/.cache/sailforce/solid.")  # fmt: skip
 
@@ -44,10 +43,10 @@ def _prepare(robot_path, joints):
     return robot
 
 
-def _settings(mesh_mm: float, three_d: bool):
+def _settings(mesh_mm: float):
     from ..solid.sweep import SolidSettings
 
-    return SolidSettings(mesh_size=mesh_mm / 1e3, solid=three_d)
+    return SolidSettings(mesh_size=mesh_mm / 1e3)
 
 
 @cli.command("solid")
@@ -56,14 +55,13 @@ def _settings(mesh_mm: float, three_d: bool):
 @click.option("--theta1-deg", type=FINITE, default=CHECK_POSE_DEG[0], show_default=True, help="Angle of l1 [deg].")
 @click.option("--theta2-deg", type=FINITE, default=CHECK_POSE_DEG[1], show_default=True, help="Angle of l2 [deg].")
 @mesh_option
-@solid_option
 @click.option("--force-N", "force_n", type=FINITE, default=Protocol().force_N, show_default=True, help="Force at A [N].")
 @cache_option
 @click.option("--keep-deck", is_flag=True, help="Keep CalculiX's input deck and output in DIR/ccx.")
 @click.option("--dpi", type=click.IntRange(50, 600), default=110, show_default=True, help="Figure resolution.")
 @click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for readings.csv, results.json, stress.png and readings.png (created if needed).")
-def solid_command(robot_path, joints, theta1_deg, theta2_deg, mesh_mm, three_d, force_n, cache_dir, keep_deck, dpi, output):
+def solid_command(robot_path, joints, theta1_deg, theta2_deg, mesh_mm, force_n, cache_dir, keep_deck, dpi, output):
     """Solve the arm as a solid at one pose and compare it with the frame model.
 
     The load cell's depth is first calibrated to its datasheet deflection.
@@ -83,14 +81,14 @@ def solid_command(robot_path, joints, theta1_deg, theta2_deg, mesh_mm, three_d, 
     robot = _prepare(robot_path, joints)
     theta1, theta2 = math.radians(theta1_deg), math.radians(theta2_deg)
     check_not_singular(theta1, theta2)
-    settings = _settings(mesh_mm, three_d)
+    settings = _settings(mesh_mm)
     console = Console(stderr=True)
     started = time.perf_counter()
     with console.status("calibrating the load cell's depth"):
         depth = cell_depth(robot, settings, cache_dir or default_cache_dir())
     with console.status(f"solving the solid at {pose_deg(theta1, theta2)} ({mesh_mm:g} mm mesh)"):
         response = solve_pose(robot, theta1, theta2, cell_depth=depth.depth, mesh_size=settings.mesh_size,
-                              stresses=not three_d, solid=three_d, workdir=output / "ccx" if keep_deck else None)  # fmt: skip
+                              stresses=True, workdir=output / "ccx" if keep_deck else None)  # fmt: skip
     seconds = time.perf_counter() - started
     output.mkdir(parents=True, exist_ok=True)
     phi = np.radians(Protocol().phi_deg)
@@ -105,7 +103,7 @@ def solid_command(robot_path, joints, theta1_deg, theta2_deg, mesh_mm, three_d, 
         np.savetxt(stream, table, fmt="%.10g", delimiter=",")
     comparison = compare(robot, response)
     write_json(output / "results.json", {
-        "pose_deg": [theta1_deg, theta2_deg], "joints": robot.joints.label, "mesh_mm": mesh_mm, "solid_3d": three_d,
+        "pose_deg": [theta1_deg, theta2_deg], "joints": robot.joints.label, "mesh_mm": mesh_mm,
         "dofs": response.dofs, "seconds": seconds, "force_N": force_n,
         "cell": {"depth_m": depth.depth, "rated_deflection_m": depth.target, "achieved_m": depth.achieved},
         "solid": response.as_dict(), "comparison": comparison,
@@ -144,7 +142,6 @@ def _print_comparison(console: Console, comparison: dict, response, depth, secon
 @robot_option
 @joints_choice
 @mesh_option
-@solid_option
 @cache_option
 @click.option("--no-cache", is_flag=True, help="Solve every pose again (the cache is neither read nor written).")
 @click.option("--workers", type=click.IntRange(1, 512), default=None,
@@ -157,7 +154,7 @@ def _print_comparison(console: Console, comparison: dict, response, depth, secon
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for poses.csv, results.json and, for the seed protocol, table4.csv and table4.png.")
-def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, three_d, cache_dir, no_cache, workers, scheduler,
+def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, cache_dir, no_cache, workers, scheduler,
                         retries, dpi, quiet, output):  # fmt: skip
     """Solve the solid at many poses, each pose one task, cached, here or on Dask.
 
@@ -182,7 +179,7 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, three_d, cac
             raise click.BadParameter(f"{protocol_spec}: no such file (expected 'seed' or a CSV of poses)",
                                      param_hint="--protocol") from None  # fmt: skip
     robot = _prepare(robot_path, joints)
-    settings = _settings(mesh_mm, three_d)
+    settings = _settings(mesh_mm)
     cache = None if no_cache else (cache_dir or default_cache_dir())
     console = Console(stderr=True)
     started = time.perf_counter()
@@ -195,7 +192,7 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, three_d, cac
     seconds = time.perf_counter() - started
     output.mkdir(parents=True, exist_ok=True)
     _write_poses(output / "poses.csv", result)
-    summary: dict = {"protocol": protocol_spec, "joints": robot.joints.label, "mesh_mm": mesh_mm, "solid_3d": three_d,
+    summary: dict = {"protocol": protocol_spec, "joints": robot.joints.label, "mesh_mm": mesh_mm,
                      "poses": len(poses), "cached": result.cached, "seconds": seconds,
                      "cell_depth_m": result.depth.depth if result.depth else None,
                      "failures": [{"theta1_deg": math.degrees(poses[k][0]), "theta2_deg": math.degrees(poses[k][1]),
@@ -271,7 +268,7 @@ def cell_fit_command(robot_path, mesh_mm, link, check, cache_dir, force, output)
         raise click.UsageError(f"{output} already exists; pass --force to replace it")
     check_output(output, {"the --robot file": robot_path})
     robot = _prepare(robot_path, None)
-    settings = _settings(mesh_mm, False)
+    settings = _settings(mesh_mm)
     console = Console(stderr=True)
     with console.status("calibrating the cell's depth and fitting its compliance"):
         depth = cell_depth(robot, settings, cache_dir or default_cache_dir())

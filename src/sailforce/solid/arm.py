@@ -91,14 +91,14 @@ def check_joints(robot: Robot) -> None:
 
 
 def solve_pose(robot: Robot, theta1: float, theta2: float, *, cell_depth: float, mesh_size: float,
-               stresses: bool = False, solid: bool = False, workdir=None) -> SolidResponse:  # fmt: skip
+               stresses: bool = False, workdir=None) -> SolidResponse:  # fmt: skip
     """Mesh and solve ``robot`` at (theta1, theta2) [rad] for the two unit loads (module docstring).
 
     ``cell_depth`` [m] is the load cell's calibrated in-plane depth (:func:`sailforce.solid.cell.calibrate_depth`).
     """
     check_joints(robot)
     layout = arm_layout(robot, theta1, theta2, cell_depth)
-    mesh = mesh_layout(layout, mesh_size, solid=solid)
+    mesh = mesh_layout(layout, mesh_size)
     sections = {p.name: (p.material.E * p.modulus_scale, p.material.nu, p.thickness) for p in layout.parts}
     rim = mesh.sets[HANDLE_RIM]
     cases = []

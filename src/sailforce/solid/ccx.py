@@ -78,17 +78,15 @@ class Deck:
 
 def write_deck(path: Path, mesh: Mesh, deck: Deck) -> None:
     """The ``.inp`` file for ``mesh`` and ``deck``."""
-    kind = "C3D15" if mesh.solid else "CPS6"
-    dims = 3 if mesh.solid else 2
     with open(path, "w", encoding="ascii") as out:
         out.write("*HEADING\nsailforce solid model\n*NODE, NSET=NALL\n")
-        fmt = "%d, %.12e, %.12e, %.12e\n" if mesh.solid else "%d, %.12e, %.12e\n"
-        rows = np.column_stack([mesh.ids, mesh.nodes[:, :dims]])
+        fmt = "%d, %.12e, %.12e\n"
+        rows = np.column_stack([mesh.ids, mesh.nodes[:, :2]])
         out.writelines(fmt % tuple(row) for row in rows.tolist())
-        out.writelines(fmt % ((n, x, y, 0.0) if mesh.solid else (n, x, y)) for n, x, y in deck.extra_nodes)
+        out.writelines(fmt % (n, x, y) for n, x, y in deck.extra_nodes)
         number = 1
         for part, conn in mesh.elements.items():
-            out.write(f"*ELEMENT, TYPE={kind}, ELSET={part}\n")
+            out.write(f"*ELEMENT, TYPE=CPS6, ELSET={part}\n")
             numbered = np.column_stack([np.arange(number, number + len(conn)), conn])
             out.writelines(_lines(row, 16) for row in numbered.tolist())
             number += len(conn)
@@ -99,9 +97,9 @@ def write_deck(path: Path, mesh: Mesh, deck: Deck) -> None:
         for part, (E, nu, thickness) in deck.sections.items():
             out.write(f"*MATERIAL, NAME=M_{part}\n*ELASTIC\n{E:.12e}, {nu:.12e}\n")
             out.write(f"*SOLID SECTION, ELSET={part}, MATERIAL=M_{part}\n")
-            out.write("\n" if mesh.solid else f"{thickness:.12e}\n")
+            out.write(f"{thickness:.12e}\n")
         if deck.clamped:
-            out.write("*BOUNDARY\n" + "".join(f"{name}, 1, {dims}\n" for name in deck.clamped))
+            out.write("*BOUNDARY\n" + "".join(f"{name}, 1, 2\n" for name in deck.clamped))
         for name, ref, rot in deck.rigid:
             out.write(f"*RIGID BODY, NSET={name}, REF NODE={ref}, ROT NODE={rot}\n")
         for terms in deck.equations:

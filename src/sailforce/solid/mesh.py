@@ -1,4 +1,4 @@
-"""Meshing a :class:`~sailforce.solid.layout.Layout` with gmsh: 6-node plane triangles, or 15-node wedges swept through the thickness.
+"""Meshing a :class:`~sailforce.solid.layout.Layout` with gmsh: 6-node plane-stress triangles.
 
 Each part is a rectangle with its holes cut out; the parts of one body are
 fragmented together so that they share nodes on their interfaces, and nothing
@@ -29,8 +29,6 @@ RIM_MIN_SEGMENTS = 16
 CELL_ELEMENTS_ACROSS = 3
 #: Tolerance [m] on locating an interface or a rim from gmsh's geometry (a micron on a robot arm).
 LOCATE_TOL = 1e-6
-#: Layers of 15-node wedges through the thickness of a swept (3-D) mesh.
-LAYERS_3D = 2
 
 
 class MeshError(SailError):
@@ -41,8 +39,8 @@ class MeshError(SailError):
 class Mesh:
     """Nodes, elements by part, and named node sets.
 
-    - ``nodes``: ``(n, 3)`` coordinates [m] (z = 0 in 2-D), row k is node ``ids[k]``;
-    - ``elements``: part name -> ``(m, 6)`` node ids of CPS6 triangles, or ``(m, 15)`` of C3D15 wedges;
+    - ``nodes``: ``(n, 3)`` coordinates [m] (z = 0), row k is node ``ids[k]``;
+    - ``elements``: part name -> ``(m, 6)`` node ids of CPS6 triangles;
     - ``sets``: set name -> node ids (hole rims; cell faces).
     """
 
@@ -50,11 +48,10 @@ class Mesh:
     nodes: np.ndarray
     elements: dict[str, np.ndarray]
     sets: dict[str, np.ndarray]
-    solid: bool  #: True for the swept 3-D mesh
 
     @property
     def dofs(self) -> int:
-        return self.nodes.shape[0] * (3 if self.solid else 2)
+        return self.nodes.shape[0] * 2
 
     def coordinates(self, ids: np.ndarray) -> np.ndarray:
         """``(k, 3)`` coordinates of the nodes ``ids``."""
@@ -62,14 +59,14 @@ class Mesh:
         return self.nodes[order[np.searchsorted(self.ids, ids, sorter=order)]]
 
 
-def mesh_layout(layout: Layout, size: float, *, solid: bool = False) -> Mesh:
-    """Mesh every part at element size ``size`` [m] (finer in the cells); ``solid``: sweep through the thickness."""
+def mesh_layout(layout: Layout, size: float) -> Mesh:
+    """Mesh every part at element size ``size`` [m] (finer in the cells)."""
     gmsh = require("gmsh", "solid", "the solid model")
     gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("sail")
-        return _mesh(gmsh, layout, size, solid)
+        return _mesh(gmsh, layout, size)
     except Exception as exc:  # gmsh raises plain Exceptions with its log line
         if isinstance(exc, SailError):
             raise
@@ -78,7 +75,7 @@ def mesh_layout(layout: Layout, size: float, *, solid: bool = False) -> Mesh:
         gmsh.finalize()
 
 
-def _mesh(gmsh, layout: Layout, size: float, solid: bool) -> Mesh:
+def _mesh(gmsh, layout: Layout, size: float) -> Mesh:
     occ = gmsh.model.occ
     surfaces: dict[str, int] = {}
     for body in dict.fromkeys(p.body for p in layout.parts):
@@ -105,8 +102,6 @@ def _mesh(gmsh, layout: Layout, size: float, solid: bool) -> Mesh:
     for curve, radius in rims.values():
         segments = max(RIM_MIN_SEGMENTS // 2, math.ceil(2 * math.pi * radius / size))
         gmsh.model.mesh.setTransfiniteCurve(curve, segments + 1)
-    if solid:
-        return _swept(gmsh, layout, surfaces, rims, faces)
     gmsh.model.mesh.generate(2)
     ids, xyz, _ = gmsh.model.mesh.getNodes()
     nodes = np.asarray(xyz).reshape(-1, 3)
@@ -118,7 +113,7 @@ def _mesh(gmsh, layout: Layout, size: float, solid: bool) -> Mesh:
         elements[name] = _counter_clockwise(np.asarray(conn[0], dtype=np.int64).reshape(-1, 6), np.asarray(ids), nodes)
     sets = {name: _curve_nodes(gmsh, curve) for name, (curve, _) in rims.items()}
     sets.update({name: _curve_nodes(gmsh, curve) for name, curve in faces.items()})
-    return Mesh(np.asarray(ids, dtype=np.int64), nodes, elements, sets, solid=False)
+    return Mesh(np.asarray(ids, dtype=np.int64), nodes, elements, sets)
 
 
 def _part_surface(occ, part: Part) -> int:
@@ -171,6 +166,3 @@ def _counter_clockwise(conn: np.ndarray, ids: np.ndarray, nodes: np.ndarray) -> 
     flipped[area < 0] = conn[area < 0][:, [0, 2, 1, 5, 4, 3]]
     return flipped
 
-
-def _swept(gmsh, layout: Layout, surfaces, rims, faces) -> Mesh:
-    raise MeshError("the swept 3-D mesh is not available yet")

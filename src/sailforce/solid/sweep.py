@@ -4,7 +4,7 @@ A pose's task meshes, solves and parses (:func:`solve_task`); it carries the
 robot as its robot-file tables, so it pickles small and any worker with
 sailforce and ccx can run it.  Results are cached as JSON files named by the
 SHA-256 of everything that decides them (:func:`task_key`): the robot's tables,
-the pose, the mesh size, 2-D or 3-D, the cell's calibrated depth and
+the pose, the mesh size, the cell's calibrated depth and
 :data:`MODEL_VERSION`.  A rerun solves only the poses whose key is new; the
 client writes the cache (workers need not share its disk), each file
 atomically, so a killed sweep leaves no half-written entry.
@@ -48,13 +48,12 @@ def default_cache_dir() -> Path:
 
 @dataclass(frozen=True)
 class SolidSettings:
-    """How the solid is built: element size [m], 2-D or swept 3-D."""
+    """How the solid is built: the element size [m] of its plane-stress mesh."""
 
     mesh_size: float = 0.002
-    solid: bool = False
 
     def as_dict(self) -> dict:
-        return {"mesh_size": self.mesh_size, "solid": self.solid}
+        return {"mesh_size": self.mesh_size}
 
 
 @dataclass(frozen=True)
@@ -83,7 +82,7 @@ def solve_task(task: PoseTask) -> dict:
     """Solve one pose (runs on a worker): the :class:`SolidResponse` as a dict."""
     robot = robot_from_data(task.robot)
     response = solve_pose(robot, task.theta1, task.theta2, cell_depth=task.cell_depth,
-                          mesh_size=task.settings.mesh_size, solid=task.settings.solid)  # fmt: skip
+                          mesh_size=task.settings.mesh_size)  # fmt: skip
     return response.as_dict()
 
 
