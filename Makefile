@@ -22,7 +22,7 @@ $(STAMP): $(PY) pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP) install-ccx
-	$(VENV)/bin/sail reproduce -o $(DEMO_DIR)
+	$(VENV)/bin/sail reproduce --solid -o $(DEMO_DIR)
 
 test: $(STAMP) lint c-test chromium install-ccx
 	$(PY) -m pytest
@@ -101,7 +101,7 @@ cross-test: $(STAMP) arm-toolchain qemu-arm
 	ctest --test-dir $(BUILD)/cross-test --output-on-failure
 
 # every benchmark; callgrind counts x86-64 instructions, QEMU Thumb-2 ones (both installed when missing)
-bench: $(STAMP) valgrind arm-toolchain qemu-arm chromium
+bench: $(STAMP) valgrind arm-toolchain qemu-arm chromium install-ccx
 	$(PY) bench/run.py
 
 # Random and mutated files through every reader (tables in file and stream mode, fit-poly tables, robot and

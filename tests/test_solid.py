@@ -251,3 +251,20 @@ def test_a_killed_worker_loses_no_pose(tmp_path):
                 process.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 os.killpg(process.pid, signal.SIGKILL)
+
+
+def test_reproduce_solid_adds_the_solids_table4_to_the_report(tmp_path, monkeypatch):
+    monkeypatch.setenv("SAIL_CACHE_DIR", str(tmp_path / "cache"))
+    out = tmp_path / "r"
+    args = ["reproduce", "-o", str(out), "--no-seed-model", "--compare-joints", "none", "--dpi", "50", "--solid",
+            "--solid-mesh-mm", "8", "--joints", "pin"]  # fmt: skip
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    report = (out / "report.md").read_text()
+    assert "## The solid model: Table 4 from gmsh + CalculiX" in report and (out / "solid" / "table4.png").exists()
+    tables = json.loads((out / "solid" / "results.json").read_text())["table4"]
+    solid, frame = np.array(tables["solid"]), np.array(tables["frame"])
+    np.testing.assert_array_equal(solid[:, 0], frame[:, 0])
+    # pin joints: each cell reads its own torque alone, so the phase is 0 in both models (docs/errata.md, Physics)
+    assert np.abs(solid[:, [2, 4]]).max() < 0.05 and np.abs(frame[:, [2, 4]]).max() < 1e-6
+    np.testing.assert_allclose(solid[:, [1, 3]], frame[:, [1, 3]], rtol=0.15)

@@ -37,7 +37,12 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
 @click.option("--dpi", type=click.IntRange(50, 600), default=DEFAULT_DPI, show_default=True, help="Figure resolution.")
 @click.option("--seed-model/--no-seed-model", default=True, show_default=True,
               help="Fit structure families to the seed's Table 4 (\"What was the seed's model?\", about 40 s).")
-def reproduce_command(output, robot_path, joints, transduction, criterion, threshold, compare_joints, dpi, seed_model):
+@click.option("--solid", is_flag=True,
+              help="Add the gmsh + CalculiX solid's Table 4 and torque check (16 poses, cached; needs ccx).")
+@click.option("--solid-mesh-mm", type=click.FloatRange(0.25, 50.0), default=4.0, show_default=True,
+              help="Element size of the solid [mm].")
+def reproduce_command(output, robot_path, joints, transduction, criterion, threshold, compare_joints, dpi, seed_model,
+                      solid, solid_mesh_mm):  # fmt: skip
     """Run the seed's virtual study (docs/errata.md protocol) and write a report.
 
     Stress patterns (Fig. 4), sweeps 1 and 2 (Fig. 5), Table 4 by
@@ -63,7 +68,7 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
         from ..seed_model import FAMILIES
 
         families = len(FAMILIES) if seed_model else 0
-        task = progress.add_task("reproducing", total=3 * len(passes) + 1 + families)
+        task = progress.add_task("reproducing", total=3 * len(passes) + 1 + families + (1 if solid else 0))
         for k, model in enumerate(passes):
             robot = load_robot(robot_path, model)
             progress.update(task, description=f"study, {model} joints")
@@ -95,13 +100,56 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
             seed_fits = seed_model_study(load_robot(robot_path), results[0].protocol, progress=fitting)
             progress.advance(task)
             write_seed_model(output, seed_fits, dpi)
+        solid_markdown = None
+        if solid:
+            progress.update(task, description=f"solid model, {joints} joints ({solid_mesh_mm:g} mm)")
+            solid_markdown = _solid_pass(output, load_robot(robot_path, joints), results[0], solid_mesh_mm, dpi)
+            progress.advance(task)
         progress.update(task, description="report")
         from ..report.document import write_report
 
-        write_report(output, results[0], results[1] if len(results) > 1 else None, study_seconds, seed_fits)
+        write_report(output, results[0], results[1] if len(results) > 1 else None, study_seconds, seed_fits, solid_markdown)
         progress.advance(task)
 
     _print_summary(console, results, output, study_seconds, time.perf_counter() - started)
+
+
+def _solid_pass(output: Path, robot, study: StudyResult, mesh_mm: float, dpi: int) -> str:
+    """The seed protocol's sweeps as solids (cached), written to DIR/solid; the report section's Markdown."""
+    from ..fem.response import simulate
+    from ..io.files import atomic_writer, write_json
+    from ..report.solid_figure import table4_figure
+    from ..report.solid_section import solid_section
+    from ..seed import seed_table4
+    from ..solid.arm import check_joints
+    from ..solid.sweep import SolidSettings, default_cache_dir, response_rows, run_poses, seed_poses
+    from ..study import TABLE4_COLUMNS, table4_from_rows
+    from . import DataError
+
+    check_joints(robot)
+    poses, sweeps = seed_poses(study.protocol)
+    started = time.perf_counter()
+    result = run_poses(robot, poses, SolidSettings(mesh_size=mesh_mm / 1e3), cache_dir=default_cache_dir())
+    seconds = time.perf_counter() - started
+    rows = [response_rows(result, s) for s in sweeps]
+    if rows[0] is None or rows[1] is None:
+        raise DataError(f"the solid failed at {len(result.failures)} poses: {next(iter(result.failures.values()))}")
+    tables = {"solid": table4_from_rows(robot.arm, study.protocol, rows[0], rows[1]), "frame": study.table4,
+              "seed": seed_table4()}  # fmt: skip
+    directory = output / "solid"
+    directory.mkdir(exist_ok=True)
+    head = ["delta_deg"] + [f"{c}_{name}" for name in tables for c in TABLE4_COLUMNS[1:]]
+    with atomic_writer(directory / "table4_comparison.csv") as stream:
+        stream.write(",".join(head) + "\n")
+        np.savetxt(stream, np.column_stack([tables["solid"]] + [t[:, 1:] for n, t in tables.items() if n != "solid"]),
+                   fmt="%.8g", delimiter=",")  # fmt: skip
+    with atomic_writer(directory / "table4.png", "wb") as stream:
+        table4_figure(tables).savefig(stream, format="png", dpi=dpi)
+    pose_array = np.array(poses)
+    frame_torques = simulate(robot, pose_array[:, 0], pose_array[:, 1]).torques
+    write_json(directory / "results.json", {"mesh_mm": mesh_mm, "joints": robot.joints.label, "seconds": seconds,
+                                            "cached": result.cached, "table4": {n: t.tolist() for n, t in tables.items()}})  # fmt: skip
+    return solid_section(robot, result, tables, frame_torques, mesh_mm, seconds)
 
 
 def _write_figures(directory: Path, result: StudyResult, dpi: int) -> None:

@@ -214,7 +214,7 @@ def _comparison_section(main: StudyResult, other: StudyResult) -> str:
 
 
 def report_markdown(main: StudyResult, comparison: StudyResult | None, study_seconds: float,
-                    seed_model: SeedModelResult | None = None) -> str:
+                    seed_model: SeedModelResult | None = None, solid: str | None = None) -> str:
     """The whole report as Markdown; figures are referenced by file name in the same directory."""
     seed = seed_table4()
     k = main.prescale
@@ -254,6 +254,8 @@ def report_markdown(main: StudyResult, comparison: StudyResult | None, study_sec
         from .seed_model import seed_model_section
 
         parts.append(seed_model_section(seed_model, main))
+    if solid is not None:
+        parts.append(solid)
     parts.append("## Files\n\n- `table4.csv`, `results.json`: the numbers above.\n"
                  "- `fig4_stress.png`, `fig5_sweeps.png`, `fig6_compensated.png`, `table4.png`, `workspace.png`."
                  + ("\n- `seed_model.json`, `seed_model.png`: the fits to the seed's Table 4." if seed_model else ""))  # fmt: skip
@@ -282,9 +284,9 @@ def markdown_to_html(markdown: str, directory: Path, title: str) -> str:
 
 
 def write_report(directory: Path, main: StudyResult, comparison: StudyResult | None, study_seconds: float,
-                 seed_model: SeedModelResult | None = None) -> None:
-    """Write ``report.md`` and the self-contained ``report.html`` into ``directory``."""
-    markdown = report_markdown(main, comparison, study_seconds, seed_model)
+                 seed_model: SeedModelResult | None = None, solid: str | None = None) -> None:
+    """Write ``report.md`` and the self-contained ``report.html`` into ``directory``; ``solid``: that section's Markdown."""
+    markdown = report_markdown(main, comparison, study_seconds, seed_model, solid)
     with atomic_writer(directory / "report.md") as stream:
         stream.write(markdown)
     with atomic_writer(directory / "report.html") as stream:

@@ -27,6 +27,9 @@ RIM_MIN_SEGMENTS = 16
 #: Elements across the load cell's depth at most this many times smaller than the mesh size: >= 3 quadratic
 #: elements through the cell, which bends.
 CELL_ELEMENTS_ACROSS = 3
+#: gmsh's "Frontal-Delaunay for quads", here without recombining: right-angled triangles aligned with the bars,
+#: 14 % fewer nodes than its default (Delaunay-frontal, 6) at the same element size (68 k against 79 k DOF at 2 mm).
+MESH_ALGORITHM = 8
 #: Tolerance [m] on locating an interface or a rim from gmsh's geometry (a micron on a robot arm).
 LOCATE_TOL = 1e-6
 
@@ -92,6 +95,7 @@ def _mesh(gmsh, layout: Layout, size: float) -> Mesh:
              for f in layout.faces}  # fmt: skip
     gmsh.option.setNumber("Mesh.MeshSizeMax", size)
     gmsh.option.setNumber("Mesh.MeshSizeMin", size / 20)
+    gmsh.option.setNumber("Mesh.Algorithm", MESH_ALGORITHM)
     gmsh.option.setNumber("Mesh.ElementOrder", 2)
     gmsh.option.setNumber("Mesh.SecondOrderLinear", 0)
     for part in layout.parts:
