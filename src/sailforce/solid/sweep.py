@@ -139,7 +139,7 @@ def run_poses(robot: Robot, poses, settings: SolidSettings = SolidSettings(), *,
             todo.append(k)
     failures = {}
     outcomes = run_tasks(solver, [tasks[k] for k in todo], workers=workers, scheduler=scheduler, retries=retries,
-                         advance=advance)  # fmt: skip
+                         advance=advance) if todo else []  # fmt: skip
     for k, outcome in zip(todo, outcomes):
         if outcome.ok:
             responses[k] = SolidResponse.from_dict(outcome.value)
