@@ -117,13 +117,13 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
 def _solid_pass(output: Path, robot, study: StudyResult, mesh_mm: float, dpi: int) -> str:
     """The seed protocol's sweeps as solids (cached), written to DIR/solid; the report section's Markdown."""
     from ..fem.response import simulate
-    from ..io.files import atomic_writer, write_json
-    from ..report.solid_figure import table4_figure
+    from ..io.files import write_json
+    from ..report.solid_figure import write_table4_comparison
     from ..report.solid_section import solid_section
     from ..seed import seed_table4
     from ..solid.arm import check_joints
     from ..solid.sweep import SolidSettings, default_cache_dir, response_rows, run_poses, seed_poses
-    from ..study import TABLE4_COLUMNS, table4_from_rows
+    from ..study import table4_from_rows
     from . import DataError
 
     check_joints(robot)
@@ -138,13 +138,7 @@ def _solid_pass(output: Path, robot, study: StudyResult, mesh_mm: float, dpi: in
               "seed": seed_table4()}  # fmt: skip
     directory = output / "solid"
     directory.mkdir(exist_ok=True)
-    head = ["delta_deg"] + [f"{c}_{name}" for name in tables for c in TABLE4_COLUMNS[1:]]
-    with atomic_writer(directory / "table4_comparison.csv") as stream:
-        stream.write(",".join(head) + "\n")
-        np.savetxt(stream, np.column_stack([tables["solid"]] + [t[:, 1:] for n, t in tables.items() if n != "solid"]),
-                   fmt="%.8g", delimiter=",")  # fmt: skip
-    with atomic_writer(directory / "table4.png", "wb") as stream:
-        table4_figure(tables).savefig(stream, format="png", dpi=dpi)
+    write_table4_comparison(directory, tables, dpi)
     pose_array = np.array(poses)
     frame_torques = simulate(robot, pose_array[:, 0], pose_array[:, 1]).torques
     write_json(directory / "results.json", {"mesh_mm": mesh_mm, "joints": robot.joints.label, "seconds": seconds,

@@ -202,18 +202,12 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, cache_dir, n
         if rows[0] is not None and rows[1] is not None:
             tables = {"solid": table4_from_rows(robot.arm, protocol, rows[0], rows[1]), "frame": table4(robot),
                       "seed": seed_table4()}  # fmt: skip
-            head = [f"{c}_{name}" if k else c for name in tables for k, c in enumerate(TABLE4_COLUMNS) if k or name == "solid"]
             with atomic_writer(output / "table4.csv") as stream:
                 stream.write(",".join(TABLE4_COLUMNS) + "\n")
                 np.savetxt(stream, tables["solid"], fmt="%.8g", delimiter=",")
-            with atomic_writer(output / "table4_comparison.csv") as stream:
-                stream.write(",".join(head) + "\n")
-                np.savetxt(stream, np.column_stack([tables["solid"]] + [t[:, 1:] for n, t in tables.items() if n != "solid"]),
-                           fmt="%.8g", delimiter=",")  # fmt: skip
-            from ..report.solid_figure import table4_figure
+            from ..report.solid_figure import write_table4_comparison
 
-            with atomic_writer(output / "table4.png", "wb") as stream:
-                table4_figure(tables).savefig(stream, format="png", dpi=dpi)
+            write_table4_comparison(output, tables, dpi)
             summary["table4"] = {name: t.tolist() for name, t in tables.items()}
             torques = np.stack([r.torques for r in result.responses if r is not None])
             from ..calibration.compensation import torque_rows

@@ -70,6 +70,20 @@ def readings_figure(phi: np.ndarray, solid: dict[str, np.ndarray], frame: dict[s
     return fig
 
 
+def write_table4_comparison(directory, tables: dict[str, np.ndarray], dpi: int) -> None:
+    """``table4_comparison.csv`` (delta, then each source's four columns) and ``table4.png`` into ``directory``."""
+    from ..io.files import atomic_writer
+    from ..study import TABLE4_COLUMNS
+
+    head = [TABLE4_COLUMNS[0]] + [f"{c}_{name}" for name in tables for c in TABLE4_COLUMNS[1:]]
+    delta = next(iter(tables.values()))[:, :1]
+    with atomic_writer(directory / "table4_comparison.csv") as stream:
+        stream.write(",".join(head) + "\n")
+        np.savetxt(stream, np.column_stack([delta] + [t[:, 1:] for t in tables.values()]), fmt="%.8g", delimiter=",")
+    with atomic_writer(directory / "table4.png", "wb") as stream:
+        table4_figure(tables).savefig(stream, format="png", dpi=dpi)
+
+
 def table4_figure(tables: dict[str, np.ndarray]) -> Figure:
     """Table 4's four columns over delta, one line per source (solid, frame, seed)."""
     fig = Figure(figsize=(9, 5.5), layout="constrained")
