@@ -5,12 +5,8 @@ from __future__ import annotations
 import itertools
 import os
 import signal
-import socket
-import subprocess
-import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -36,6 +32,7 @@ from sailforce.fem.model import build_model
 from sailforce.fem.modes import arm_frequencies, arm_modes
 from sailforce.io.robotkeys import with_keys
 from sailforce.robot import Robot
+from tests.dask_cluster import local_cluster
 
 #: A coarse grid keeps each variant to a few tens of milliseconds.
 SMALL = GridSpec(n=12)
@@ -179,12 +176,6 @@ def test_cluster_options_are_checked():
         run_tasks(abs, [1], workers=2, scheduler="tcp://127.0.0.1:1")
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _slow_row(task: Task) -> dict:
     time.sleep(0.4)  # long enough that a worker is killed with tasks in hand
     return {**evaluate(task), "pid": os.getpid()}
@@ -193,21 +184,7 @@ def _slow_row(task: Task) -> dict:
 def test_a_killed_worker_loses_no_variant(tmp_path):
     """A real `dask scheduler` and two `dask worker`s on 127.0.0.1; one worker is killed mid-sweep, and every
     variant still comes back exactly once, computed."""
-    bin_dir = Path(sys.executable).parent
-    port = _free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    # the workers import this module (tests.test_design_sweep) to run _slow_row
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parent.parent) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    logs = tmp_path / "logs"
-    logs.mkdir()
-    spawn = lambda name, *args: subprocess.Popen([str(bin_dir / "dask"), *args], stdout=(logs / name).open("w"),
-                                                 stderr=subprocess.STDOUT, env=env, start_new_session=True)  # fmt: skip
-    processes = [spawn("scheduler", "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")]
-    try:
-        time.sleep(1.0)
-        workers = [spawn(f"worker{i}", "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard", "--host", "127.0.0.1")
-                   for i in range(2)]  # fmt: skip
-        processes += workers
+    with local_cluster(tmp_path) as (address, workers):  # the workers import tests.test_design_sweep for _slow_row
         tasks = [Task(with_keys(Robot(), {"loadcells.position": p}), SMALL) for p in np.linspace(0.3, 0.7, 12)]
         killed = threading.Event()
 
@@ -222,12 +199,3 @@ def test_a_killed_worker_loses_no_variant(tmp_path):
         for task, outcome in zip(tasks, outcomes):
             assert outcome.value["resolution_N"] == pytest.approx(evaluate(task)["resolution_N"], rel=1e-12)
         assert workers[1].pid in {o.value["pid"] for o in outcomes}  # the survivor took over
-    finally:
-        for process in processes:
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGTERM)
-        for process in processes:
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)

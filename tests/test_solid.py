@@ -9,11 +9,7 @@ import json
 import math
 import os
 import signal
-import subprocess
-import sys
 import threading
-import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,6 +25,7 @@ from sailforce.solid import SolverError, calibrate_depth, fit_compliance, solve_
 from sailforce.solid.cell import DEPTH_RTOL, cantilever_flexibility
 from sailforce.solid.compare import compare
 from sailforce.solid.sweep import PoseTask, SolidSettings, run_poses, solve_task
+from tests.dask_cluster import local_cluster
 
 pytest.importorskip("gmsh")
 
@@ -208,22 +205,7 @@ def _solve_with_pid(task: PoseTask) -> dict:
 def test_a_killed_worker_loses_no_pose(tmp_path):
     """A real `dask scheduler` and two `dask worker`s on 127.0.0.1; one is killed mid-sweep; every pose comes back
     once, solved, and equal to the same pose solved here."""
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    address = f"tcp://127.0.0.1:{port}"
-    bin_dir = Path(sys.executable).parent
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parent.parent) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    spawn = lambda name, *args: subprocess.Popen([str(bin_dir / "dask"), *args], stdout=(tmp_path / name).open("w"),
-                                                 stderr=subprocess.STDOUT, env=env, start_new_session=True)  # fmt: skip
-    processes = [spawn("scheduler", "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")]
-    try:
-        time.sleep(1.0)
-        workers = [spawn(f"worker{i}", "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                         "--host", "127.0.0.1") for i in range(2)]  # fmt: skip
-        processes += workers
+    with local_cluster(tmp_path) as (address, workers):  # the workers import tests.test_solid for _solve_with_pid
         depth = calibrate_depth(Robot().loadcell, COARSE).depth
         tasks = [PoseTask(robot_data(Robot()), math.radians(a), 0.0, SolidSettings(COARSE), depth) for a in range(30, 130, 15)]
         killed = threading.Event()
@@ -242,15 +224,6 @@ def test_a_killed_worker_loses_no_pose(tmp_path):
             np.testing.assert_allclose(outcome.value["torques"], Arm().jacobian(task.theta1, 0.0).T, atol=1e-5)
         here = solve_task(tasks[-1])
         np.testing.assert_allclose(outcomes[-1].value["deflection"], here["deflection"], rtol=1e-9)
-    finally:
-        for process in processes:
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGTERM)
-        for process in processes:
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
 
 
 def test_reproduce_solid_adds_the_solids_table4_to_the_report(tmp_path, monkeypatch):
