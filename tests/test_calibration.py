@@ -110,7 +110,7 @@ def _simple_calibration() -> Calibration:
     c[1] = [[1e-5, 2e-6], [0.0, -1e-5]]
     return Calibration(arm=arm, model=MatrixCompensator(arm, c, (0.25, 2.1)), offsets=(10.0, -5.0), capacity=(1.0, 1.0),
                        delta_range=(0.25, 2.1), load_range=((-1.0, 1.0), (-1.0, 1.0)), load_unit="counts",
-                       metrics={"cv_rmse_N": 0.1}, data_sha256="abc", created="2026-01-01T00:00:00+00:00")  # fmt: skip
+                       metrics={"cv_rmse_N": 0.1}, data_sha256="ab" * 32, created="2026-01-01T00:00:00+00:00")  # fmt: skip
 
 
 def test_file_round_trip(tmp_path):

@@ -28,6 +28,7 @@ import datetime as _dt
 import hashlib
 import json
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -53,6 +54,43 @@ REQUIRED = ("schema_version", "software", "created", "data_sha256", "units", "ro
 
 class CalibrationFileError(SailError):
     """A calibration file that is missing, corrupt, tampered with or out of range."""
+
+
+#: The text fields, as the patterns they must match: they reach C comments (``sail export-c``), the page and
+#: reports, and anyone can recompute the checksum, so none may carry ``*/``, a newline or markup.
+TEXT_FIELDS = {
+    "created": (re.compile(r"(\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,6})?(Z|[+-]\d{2}:\d{2})?)?\Z"),
+                "UTC time in ISO 8601, such as 2026-12-01T20:17:26+00:00"),
+    "software": (re.compile(r"[A-Za-z0-9][A-Za-z0-9 ._+()-]{0,79}\Z"), "up to 80 letters, digits, spaces and ._+()-"),
+    "data_sha256": (re.compile(r"([0-9a-f]{64})?\Z"), "64 lower-case hexadecimal digits, or empty"),
+    "units.load": (re.compile(r"[A-Za-z0-9µ%][A-Za-z0-9µ% ._/()-]{0,31}\Z"), "up to 32 letters, digits, spaces and ._/()%-"),
+}  # fmt: skip
+
+#: A full cell must stand for a hand force within these bounds [N], nine orders of magnitude either side of a newton,
+#: at every calibrated pose: far outside them the numbers are not a calibration (an amplitude of 1e-300 would give
+#: F = 0 on every row, and a cell that never saturates hides overloads).
+FULL_SCALE_FORCE_N = (1e-9, 1e9)
+
+#: The largest raw number (load, offset, capacity) a calibration may hold: 1e15, beyond any ADC's counts and any unit's.
+MAX_RAW = 1e15
+
+#: The sensing map's condition number beyond which the force inversion is meaningless in float64.
+MAX_CONDITION = 1e10
+
+#: Where a dynamic term may come from.
+DYNAMICS_SOURCES = ("free-motion", "prior")
+
+#: Poses at which the sensing map is checked, spread evenly over the calibrated delta range.
+CHECK_POSES = 9
+
+
+def check_text(name: str, value: object) -> str:
+    """``value`` as the text field ``name`` (:data:`TEXT_FIELDS`); raises ``ValueError`` naming the rule."""
+    pattern, rule = TEXT_FIELDS[name]
+    if not isinstance(value, str) or not pattern.match(value):
+        shown = value if not isinstance(value, str) else value[:60] + ("..." if len(value) > 60 else "")
+        raise ValueError(f"{name} = {shown!r}: expected {rule}")
+    return value
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -162,8 +200,9 @@ class Calibration:
         missing = [k for k in REQUIRED if k not in data]
         if missing:
             fail(f"missing field(s) {', '.join(missing)}")
-        if data["schema_version"] != SCHEMA_VERSION:
-            fail(f"schema_version {data['schema_version']!r} is not supported (this sailforce reads {SCHEMA_VERSION})")
+        version = data["schema_version"]
+        if type(version) is not int or version != SCHEMA_VERSION:  # true == 1 in Python, not in a file
+            fail(f"schema_version {version!r} is not supported (this sailforce reads {SCHEMA_VERSION})")
         try:
             expected = checksum({k: v for k, v in data.items() if k != "checksum"})
         except (TypeError, ValueError) as exc:
@@ -174,10 +213,20 @@ class Calibration:
             arm = Arm(**{k: _number(data["robot"], k) for k in ("l1", "l2", "l3", "l4")})
         except (GeometryError, TypeError, KeyError) as exc:
             fail(f"robot: {exc}")
+        units = data["units"]
+        try:
+            if not isinstance(units, dict):
+                raise ValueError("units must be an object")
+            text = {k: check_text(k, data[k]) for k in ("created", "software", "data_sha256")}
+            text["load"] = check_text("units.load", units.get("load", "raw"))
+        except ValueError as exc:
+            fail(str(exc))
         offsets = _pair(data, "offsets", fail)
         capacity = _pair(data, "capacity", fail)
         if min(capacity) <= 0:
             fail(f"capacity {capacity} must be positive")
+        if max(map(abs, offsets + capacity)) > MAX_RAW:
+            fail(f"offsets {offsets} and capacity {capacity} must lie within ±{MAX_RAW:g} raw units")
         delta_range = _pair(data, "delta_range", fail)
         if not 0.0 < delta_range[0] < delta_range[1] < math.pi and not -math.pi < delta_range[0] < delta_range[1] < 0.0:
             fail(f"delta_range {delta_range} rad must be increasing and inside (0, pi) or (-pi, 0)")
@@ -185,15 +234,42 @@ class Calibration:
         if not (isinstance(load_range, list) and len(load_range) == 2):
             fail("load_range must be [[min1, max1], [min2, max2]]")
         load_range = tuple(_pair({"r": r}, "r", fail) for r in load_range)
+        for cell, (low, high) in enumerate(load_range, start=1):
+            if not low <= high or max(abs(low), abs(high)) > MAX_RAW:
+                fail(f"load_range of cell {cell} is [{low:g}, {high:g}]: expected min <= max, within ±{MAX_RAW:g}")
         model = _model_from(data["model"], arm, delta_range, fail)
-        units = data["units"]
+        _check_sensing(model, capacity, delta_range, fail)
         dynamics = _dynamics_from(data["dynamics"], fail) if "dynamics" in data else None
+        if dynamics is not None and data["dynamics"].get("source", "") not in ("", *DYNAMICS_SOURCES):
+            fail(f"dynamics.source {data['dynamics'].get('source')!r}: expected one of {', '.join(DYNAMICS_SOURCES)}")
         return cls(arm=arm, model=model, offsets=offsets, capacity=capacity, delta_range=delta_range,
-                   load_range=load_range, load_unit=str(units.get("load", "raw")) if isinstance(units, dict) else "raw",
+                   load_range=load_range, load_unit=text["load"],
                    metrics=data["metrics"] if isinstance(data["metrics"], dict) else {},
-                   data_sha256=str(data["data_sha256"]), created=str(data["created"]), software=str(data["software"]),
+                   data_sha256=text["data_sha256"], created=text["created"], software=text["software"],
                    dynamics=dynamics,
                    dynamics_source=str(data["dynamics"].get("source", "")) if dynamics else "")  # fmt: skip
+
+
+def _check_sensing(model, capacity, delta_range, fail: Callable[[str], NoReturn]) -> None:
+    """The sensing map must be invertible, and a full cell a plausible force, at every calibrated pose.
+
+    M maps the hand force to the readings (s = M F, raw per N); its singular
+    values bound what a full cell means: capacity / sigma_max is the smallest
+    force that fills a cell.  Checked at ``theta2 = 0`` over the calibrated
+    delta range, where the estimate is used without extrapolation.
+    """
+    delta = np.linspace(delta_range[0], delta_range[1], CHECK_POSES)
+    with np.errstate(all="ignore"):
+        m = model.sensing_matrix(delta, np.zeros_like(delta))
+        sigma = np.linalg.svd(m, compute_uv=False) if np.all(np.isfinite(m)) else None
+    if sigma is None or not np.all(np.isfinite(sigma)) or np.any(sigma[:, -1] <= sigma[:, 0] / MAX_CONDITION):
+        fail("model: the sensing map is not invertible over the calibrated delta range (a zero or non-finite "
+             "coefficient?); recalibrate")  # fmt: skip
+    full_scale = min(capacity) / sigma[:, 0].max(), max(capacity) / sigma[:, -1].min()
+    low, high = FULL_SCALE_FORCE_N
+    if full_scale[0] < low or full_scale[1] > high:
+        fail(f"model and capacity: a full cell stands for {full_scale[0]:.3g} to {full_scale[1]:.3g} N at the hand, "
+             f"outside {low:g} .. {high:g} N; the numbers are not a calibration of this arm's cells")  # fmt: skip
 
 
 def _finite(text: str) -> float:

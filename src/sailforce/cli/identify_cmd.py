@@ -12,7 +12,7 @@ from rich.table import Table
 
 from ..fem.response import TRANSDUCTIONS
 from ..identify import AMPLITUDE_WEIGHT, Identification, IdentifyError, ReadingsTarget, Table4Target, identify, with_free_springs
-from ..io.files import read_numeric_csv, write_json
+from ..io.files import read_numeric_csv, write_figure, write_json
 from ..io.robotfile import template
 from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS
 from ..study import TABLE4_COLUMNS, Protocol, table4
@@ -183,7 +183,7 @@ def _write(output: Path, fit: Identification, target, robot) -> None:
     from ..report.identify_figure import identify_figure
 
     start = table4(robot, target.transduction, protocol=target.protocol) if isinstance(target, Table4Target) else None
-    identify_figure(fit, target, start).savefig(output / "fit.png", dpi=110)
+    write_figure(output / "fit.png", identify_figure(fit, target, start), dpi=110)
 
 
 def _row_key(target) -> np.ndarray:

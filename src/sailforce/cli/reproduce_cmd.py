@@ -147,6 +147,7 @@ def _solid_pass(output: Path, robot, study: StudyResult, mesh_mm: float, dpi: in
 
 
 def _write_figures(directory: Path, result: StudyResult, dpi: int) -> None:
+    from ..io.files import write_figure
     from ..report.results import seed_table4
     from ..report.stress_figure import stress_figure
     from ..report.study_figures import compensated_figure, sweeps_figure, table4_figure, workspace_figure
@@ -160,8 +161,7 @@ def _write_figures(directory: Path, result: StudyResult, dpi: int) -> None:
         "workspace.png": lambda: workspace_figure(result),
     }
     for name, make in figures.items():
-        fig = make()
-        fig.savefig(directory / name, dpi=dpi)
+        write_figure(directory / name, make(), dpi=dpi)
 
 
 def _print_summary(console: Console, results: list[StudyResult], output: Path, study_s: float, total_s: float) -> None:

@@ -7,6 +7,7 @@ import json
 import math
 import os
 import secrets
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, is_dataclass
@@ -35,13 +36,19 @@ class OutputPathError(SailError):
 def atomic_writer(path: str | Path, mode: str = "w", *, keep_on_interrupt: bool = False) -> Iterator[IO]:
     """Write to a temporary file beside ``path`` and rename it into place on success.
 
-    A symlink at ``path`` stays a symlink: its target is replaced.  The data
-    reach the disk (fsync) before the rename, and the file gets the mode
-    ``open()`` would give it.  On any error the temporary file is removed and
-    ``path`` is untouched; with ``keep_on_interrupt`` (live recordings) an
-    interrupt (Ctrl-C, SIGTERM) still puts into place what was written, if
-    anything was.
+    Only regular files are written: a ``path`` that is (or links to) a
+    device, a FIFO, a socket or a folder is refused with
+    :class:`OutputPathError` before anything is written, and checked again
+    just before the rename, since replacing ``/dev/null`` with a file breaks
+    a machine.  A symlink at ``path`` to a regular file (or to a name not
+    yet taken) stays a symlink: its target is replaced, as the user who made
+    the link asked.  The data reach the disk (fsync) before the rename, and
+    the file gets the mode ``open()`` would give it.  On any error the
+    temporary file is removed and ``path`` is untouched; with
+    ``keep_on_interrupt`` (live recordings) an interrupt (Ctrl-C, SIGTERM)
+    still puts into place what was written, if anything was.
     """
+    check_regular_output(path)
     target = Path(os.path.realpath(path))
     tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
     try:
@@ -73,7 +80,29 @@ def atomic_writer(path: str | Path, mode: str = "w", *, keep_on_interrupt: bool 
 def _commit(stream: IO, tmp: Path, target: Path) -> None:
     stream.flush()
     os.fsync(stream.fileno())
+    check_regular_output(target)  # it may have changed while we wrote
     os.replace(tmp, target)
+
+
+#: What a path that is not a regular file is, for the message.
+_FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+               (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))  # fmt: skip
+
+
+def check_regular_output(path: str | Path, flag: str = "-o") -> None:
+    """Refuse an output that exists and is not a regular file (following symlinks): see :func:`atomic_writer`."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
+    if stat.S_ISREG(mode):
+        return
+    kind = next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+    via = f" (the symlink's target, {os.path.realpath(path)})" if os.path.islink(path) else ""
+    raise OutputPathError(f"{flag} {path}{via}: that is {kind}, not a regular file, and writing would replace it; "
+                          "name a regular file")  # fmt: skip
 
 
 def check_output(output: str | Path | None, inputs: dict[str, str | Path | None], flag: str = "-o") -> None:
@@ -183,3 +212,10 @@ def numeric_table_writer(path: str | Path, columns: tuple[str, ...], *, csv_form
     with atomic_writer(path) as stream:
         stream.write(",".join(columns) + "\n")
         yield lambda values: np.savetxt(stream, np.column_stack([values[n] for n in columns]), fmt=csv_format, delimiter=",")
+
+
+def write_figure(path: str | Path, figure, *, dpi: float = 150) -> None:
+    """Save a matplotlib ``figure`` to ``path`` through :func:`atomic_writer`, in the format its extension names."""
+    suffix = Path(path).suffix.lstrip(".").lower() or "png"
+    with atomic_writer(path, "wb") as stream:
+        figure.savefig(stream, format=suffix, dpi=dpi)

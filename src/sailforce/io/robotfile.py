@@ -17,6 +17,7 @@ from ..arm import Arm
 from ..errors import GeometryError, RobotFileError
 from ..materials import RectangularSection
 from ..robot import JOINT_NAMES, LINK_NAMES, Joint, Joints, LinkBodies, LinkBody, Robot
+from .files import atomic_writer
 
 LINK_KEYS = LINK_NAMES
 SECTION_KEYS = ("depth", "thickness")
@@ -180,7 +181,8 @@ def write_template(path: str | Path, *, overwrite: bool = False) -> Path:
     if path.exists() and not overwrite:
         raise RobotFileError(f"{path}: already exists; pass --force to overwrite it")
     try:
-        path.write_text(template(), encoding="utf-8")
+        with atomic_writer(path) as stream:
+            stream.write(template())
     except OSError as exc:
         raise RobotFileError(f"{path}: cannot write ({exc.strerror})") from None
     return path

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from .. import __version__
 from ..design.study import Design
 from ..fem.model import MEMBERS, build_model, node_positions
-from ..io.files import atomic_writer, write_json
+from ..io.files import atomic_writer, write_figure, write_json
 from .document import markdown_to_html
 from .labels import links_label
 
@@ -185,7 +185,7 @@ def write_design(directory: Path, design: Design, seconds: float, dpi: int, sect
     directory.mkdir(parents=True, exist_ok=True)
     write_json(directory / "design.json", design_json(design))
     for name, make in FIGURES.items():
-        make(design).savefig(directory / name, dpi=dpi)
+        write_figure(directory / name, make(design), dpi=dpi)
     markdown = report_markdown(design, seconds, sections)
     with atomic_writer(directory / "report.md") as stream:
         stream.write(markdown)

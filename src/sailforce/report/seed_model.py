@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..identify import get_parameter
-from ..io.files import write_json
+from ..io.files import write_figure, write_json
 from ..seed import SEED_PRESCALE, SEED_RMSE
 from ..seed_model import TARGET_PHASE_RMS_DEG, TARGET_SHAPE_RMS, FamilyFit, SeedModelResult, interior_minimum, shape
 from ..study import StudyResult, table4
@@ -247,4 +247,4 @@ def write_seed_model(directory: Path, result: SeedModelResult, dpi: int) -> None
                           "p1_max_deg": c.p1_max_deg, "p2_range_deg": list(c.p2_range_deg), "a2_spread": c.a2_spread},
         "implied_lengths_m": {"l3": result.lengths[0], "l2": result.lengths[1]},
     })  # fmt: skip
-    seed_model_figure(result).savefig(directory / "seed_model.png", dpi=dpi)
+    write_figure(directory / "seed_model.png", seed_model_figure(result), dpi=dpi)

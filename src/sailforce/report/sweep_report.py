@@ -11,7 +11,7 @@ import pyarrow.parquet as pq
 from matplotlib.figure import Figure
 
 from ..design.sweep import SweepResult
-from ..io.files import atomic_writer
+from ..io.files import atomic_writer, write_figure
 from .labels import markdown_table
 
 #: Rows of the ranking shown in the report (the table holds them all).
@@ -100,5 +100,5 @@ def write_sweep(directory: Path, result: SweepResult, dpi: int) -> str:
         pa_csv.write_csv(table, stream)
     with atomic_writer(directory / "sweep.parquet", "wb") as stream:
         pq.write_table(table, stream)
-    pareto_figure(result).savefig(directory / "pareto.png", dpi=dpi)
+    write_figure(directory / "pareto.png", pareto_figure(result), dpi=dpi)
     return sweep_markdown(result)
