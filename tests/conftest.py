@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from click.testing import CliRunner
 from hypothesis import strategies as st
 
 from sailforce import Arm
@@ -21,3 +23,20 @@ def arms(draw) -> Arm:
     l2 = draw(lengths)
     l3 = l1 + draw(st.floats(min_value=0.01, max_value=1.0))
     return Arm(l1=l1, l2=l2, l3=l3, l4=l2)
+
+
+@pytest.fixture(scope="session")
+def cals(tmp_path_factory):
+    """A static and a dynamic calibration of simulated rig 1, made as `make live` makes them: (folder, static, dynamic)."""
+    from sailforce.calibration.file import Calibration
+    from sailforce.cli import cli
+
+    def run(*args):
+        return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
+
+    d = tmp_path_factory.mktemp("live")
+    assert run("simulate-motion", "--session", "static", "--rig", "1", "-o", d / "static.csv").exit_code == 0
+    for name, extra in (("static.json", ()), ("dynamic.json", ("--dynamics", "prior"))):
+        result = run("calibrate", d / "static.csv", "--model", "matrix", "-q", "-o", d / name, *extra)
+        assert result.exit_code == 0, result.output
+    return d, Calibration.load(d / "static.json"), Calibration.load(d / "dynamic.json")

@@ -42,17 +42,6 @@ def run(*args):
     return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)
 
 
-@pytest.fixture(scope="module")
-def cals(tmp_path_factory):
-    """A static and a dynamic calibration of simulated rig 1, made as `make live` makes them."""
-    d = tmp_path_factory.mktemp("live")
-    assert run("simulate-motion", "--session", "static", "--rig", "1", "-o", d / "static.csv").exit_code == 0
-    for name, extra in (("static.json", ()), ("dynamic.json", ("--dynamics", "prior"))):
-        result = run("calibrate", d / "static.csv", "--model", "matrix", "-q", "-o", d / name, *extra)
-        assert result.exit_code == 0, result.output
-    return d, Calibration.load(d / "static.json"), Calibration.load(d / "dynamic.json")
-
-
 def _table(path, rows, header="t_s,theta1_deg,theta2_deg,load1,load2"):
     path.write_text(header + "\n" + "".join(",".join(map(str, r)) + "\n" for r in rows))
     return path

@@ -17,8 +17,8 @@ from ..live.recorder import RECORD_FORMATS
 from . import cli
 from ._options import FINITE, PrimaryOption, lowpass_options, make_lowpass, robot_option
 
-#: The addresses that only this machine reaches.
-LOOPBACK = ("127.0.0.1", "localhost", "::1")
+#: The shortest token accepted from --token or SAIL_LIVE_TOKEN: 16 characters.
+MIN_TOKEN_CHARS = 16
 
 
 @cli.command("live")
@@ -40,6 +40,10 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Address to serve on; 0.0.0.0 lets other machines see the page (and warns).")
 @click.option("--port", type=click.IntRange(0, 65535), default=8050, show_default=True, help="Port (0: any free one).")
+@click.option("--allow-host", "allow_hosts", multiple=True, metavar="NAME",
+              help="Beyond loopback: also answer requests for this host name (repeatable); IP addresses always are.")
+@click.option("--token", envvar="SAIL_LIVE_TOKEN", default=None, metavar="TEXT",
+              help="The commands' token (default: a new random one); also from $SAIL_LIVE_TOKEN. At least 16 characters.")
 @click.option("--record-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("recordings"), show_default=True,
               help="Where the record button's files and saved calibrations go (named by the server, never overwritten).")
 @click.option("--record-format", type=click.Choice(RECORD_FORMATS), default="csv", show_default=True,
@@ -48,7 +52,7 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
               help="Also log pages connecting and commands carried out (refused and malformed messages always are).")
 @lowpass_options
 def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, robot_path, rig, lsl_in, lsl_out, host, port,
-                 record_dir, record_format, verbose, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
+                 allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
     """Serve a live page of the arm and its force at http://127.0.0.1:8050/.
 
     \b
@@ -68,7 +72,10 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
     once; "save calibration" writes them to a new file in --record-dir.
     Its record button writes the estimated rows (the columns `sail
     estimate` writes) to a new file in --record-dir.  Commands need the
-    token embedded in the page.  Ctrl-C stops, closing any recording.
+    server's token: the page carries it when opened over a loopback address
+    (127.0.0.1, localhost); over any other it asks for the token that this
+    command prints.  Requests for a Host name the server does not answer to
+    are refused (DNS rebinding).  Ctrl-C stops, closing any recording.
     """
     kernel.prefer_backend("numpy")
     console = Console(stderr=True)
@@ -89,20 +96,26 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
     lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order, rate_alone=True)
     dt = None if sample_rate_hz is None else 1.0 / sample_rate_hz
     logging.basicConfig(format="sail live: %(message)s", level=logging.INFO if verbose else logging.WARNING)
-    if host not in LOOPBACK:
-        console.print(f"[bold yellow]warning:[/bold yellow] serving on {host}: anyone who can reach this machine can "
-                      "watch the stream, and anyone who also reads the page's token can tare and record", highlight=False)  # fmt: skip
+    if token is not None and (len(token) < MIN_TOKEN_CHARS or not token.isprintable() or " " in token):
+        raise click.BadParameter(f"a token is at least {MIN_TOKEN_CHARS} printable characters without spaces", param_hint="--token")
 
     from .._extras import require
 
     require("aiohttp", "live", "sail live")
     from ..live.pipeline import LivePipeline
-    from ..live.server import LiveServer, serve
+    from ..live.server import HostPolicy, LiveServer, is_loopback, serve
+
+    hosts = HostPolicy(host, frozenset(allow_hosts))
+    if not is_loopback(host):
+        console.print(f"[bold yellow]warning:[/bold yellow] serving on {host}: anyone who can reach this machine can watch "
+                      "the stream. Tare, record and save need the token, which the page asks for when it is opened from "
+                      "another machine; give it only to those who may change the offsets", highlight=False)  # fmt: skip
 
     with ExitStack() as stack:
         blocks, label = _source(stack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, sample_rate_hz)
         pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt)
-        server = LiveServer(pipeline, record_dir=record_dir, record_format=record_format, calibration_path=cal_path)
+        server = LiveServer(pipeline, record_dir=record_dir, record_format=record_format, calibration_path=cal_path, hosts=hosts,
+                            **({"token": token} if token else {}))  # fmt: skip
         if lsl_out is not None:
             from ..live.lsl import Outlet
 
@@ -112,6 +125,8 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
 
         def ready(url: str) -> None:
             click.echo(f"sail live: serving {url} ({label}); Ctrl-C stops", err=False)
+            if not hosts.loopback_only:
+                click.echo(f"sail live: the commands' token is {server.token}", err=False)
 
         try:
             asyncio.run(serve(server, host, port, ready))

@@ -166,6 +166,7 @@ class LivePipeline:
         self._source_done = False
         self._restarting = False
         self._last_block = -math.inf
+        self._stopping = threading.Event()
 
     # -- the user's side -----------------------------------------------------------------------
     @property
@@ -181,6 +182,11 @@ class LivePipeline:
         threading.Thread(target=self._read, name="sail-live-source", daemon=True).start()
         threading.Thread(target=self._estimate, name="sail-live-estimate", daemon=True).start()
         return self
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """End the stream as if the source had ended (an endless source too), and wait up to ``timeout`` [s]."""
+        self._stopping.set()
+        self.ended.wait(timeout)
 
     def set_calibration(self, cal: Calibration) -> None:
         """Estimate with ``cal`` from the next block on."""
@@ -204,10 +210,19 @@ class LivePipeline:
             self._finish_tare(SailError("the stream has ended: there are no samples to tare on"))
         return done
 
+    def cancel_tare(self) -> bool:
+        """Stop the tare under way, if any (its future gets an error; the offsets stay); whether one was."""
+        with self._lock:
+            running = self._tare is not None
+        self._finish_tare(SailError("the tare was cancelled; the offsets are unchanged"))
+        return running
+
     # -- the threads ----------------------------------------------------------------------------
     def _read(self) -> None:
         try:
             for block in self._blocks:
+                if self._stopping.is_set():
+                    break
                 self._queue.put(block)
         except BaseException as exc:  # a source's error ends the stream; the estimating thread reports it
             self._queue.put(exc)
@@ -267,8 +282,9 @@ class LivePipeline:
                         break  # the source failed: that is the error to report
                     raise
         except BaseException as exc:
-            log.error("the live estimate stopped: %s", exc)
-            self.error = self.error or exc
+            if not self._stopping.is_set():  # asked to stop: whatever ends the run is no error
+                log.error("the live estimate stopped: %s", exc)
+                self.error = self.error or exc
         finally:
             self._finish_tare(SailError("the stream ended before the tare had its samples"))
             self.ended.set()

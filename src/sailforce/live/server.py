@@ -15,21 +15,36 @@ Routes:
 - ``POST /api/tare``, ``/api/save-calibration``, ``/api/record``: the
   commands, for scripts (``X-Sail-Token`` header).
 
+Every request must name, in its ``Host`` header, a host the server
+answers to (:class:`HostPolicy`): loopback names and addresses, and on a
+non-loopback bind the bound address, IP literals and the names given with
+``--allow-host``.  Anything else is refused before any route runs, so a page
+of another site whose name is made to resolve to this machine (DNS
+rebinding) gets neither the page, nor the token, nor the stream.
 State-changing requests need the token, compared in constant time; they
 take no file name from the client (recordings and calibrations are named by
-the server, in the recording folder).  WebSocket handshakes from another
-origin than the page's are refused, so another site open in the same browser
-cannot read the stream.
+the server, in the recording folder).  The page carries the token only when
+it is requested over a loopback host: on any other it asks the user for it.
+WebSocket handshakes and commands from another origin than the page's are
+refused, so another site open in the same browser cannot read the stream.
+Messages are bounded in size (:data:`MAX_MESSAGE_BYTES`), clients in number
+(:data:`MAX_CLIENTS`), a client's pending commands too
+(:data:`MAX_PENDING_COMMANDS`); a client that stops reading is dropped after
+:data:`SEND_TIMEOUT_S`; refused and malformed messages are logged at most
+:data:`LOG_BURST` times per :data:`LOG_PERIOD_S`.  See docs/guide/live.md's
+threat model.
 """
 
 from __future__ import annotations
 
 import asyncio
 import hmac
+import ipaddress
 import json
 import logging
 import os
 import secrets
+import socket
 import time
 from dataclasses import dataclass, field
 from importlib import resources
@@ -62,11 +77,116 @@ MAX_TARE_SAMPLES = 1_000_000
 #: The HTTP header that carries the token of a script's command.
 TOKEN_HEADER = "X-Sail-Token"
 
-COMMANDS = ("tare", "save-calibration", "record")
+COMMANDS = ("tare", "cancel-tare", "save-calibration", "record")
+
+#: The largest WebSocket message or HTTP body the server reads [bytes]: a command is under 200.
+MAX_MESSAGE_BYTES = 16 * 1024
+
+#: Pages that may watch at once; one more is refused (503) rather than slowing the others.
+MAX_CLIENTS = 32
+
+#: Commands one page may have under way at once (a tare waits for its samples); more are refused.
+MAX_PENDING_COMMANDS = 4
+
+#: A page that has not taken an update within this long [s] has stopped reading: it is dropped.
+SEND_TIMEOUT_S = 2.0
+
+#: Refused or malformed messages are logged at most LOG_BURST times per LOG_PERIOD_S [s]; the rest are counted.
+LOG_BURST, LOG_PERIOD_S = 10, 10.0
+
+#: Names that reach only this machine.
+LOOPBACK_NAMES = frozenset({"localhost", "localhost.localdomain", "ip6-localhost", "ip6-loopback"})
 
 
 class CommandError(SailError):
     """A command the server cannot carry out; its message goes back to the page."""
+
+
+def _address(name: str) -> ipaddress.IPv4Address | ipaddress.IPv6Address | None:
+    try:
+        return ipaddress.ip_address(name.strip("[]"))
+    except ValueError:
+        return None
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` (a name or an address, IPv6 with or without brackets) reaches only this machine."""
+    address = _address(host)
+    return host.lower().rstrip(".") in LOOPBACK_NAMES if address is None else address.is_loopback
+
+
+@dataclass(frozen=True)
+class HostPolicy:
+    """Which ``Host`` headers the server answers, from the address it is bound to.
+
+    Always the loopback names and addresses.  On a non-loopback bind also the
+    bound address itself, any IP literal (a rebinding attack always sends a
+    name, never an address), this machine's host name, and ``allowed``: the
+    names given with ``--allow-host``.
+    """
+
+    bind: str
+    allowed: frozenset[str] = frozenset()
+
+    @property
+    def loopback_only(self) -> bool:
+        return is_loopback(self.bind)
+
+    def accepts(self, host_header: str | None) -> bool:
+        """Whether a request whose ``Host`` header is ``host_header`` (``name[:port]``) may be answered."""
+        if not host_header:
+            return False
+        name = _host_name(host_header)
+        if is_loopback(name):
+            return True
+        if self.loopback_only:
+            return False
+        if _address(name) is not None or name == self.bind.lower():
+            return True
+        return name in {n.lower().rstrip(".") for n in self.allowed} | {socket.gethostname().lower()}
+
+
+def _shown(text: str | None, limit: int = 100) -> str:
+    """A header's value for a log line: at most ``limit`` characters, anything unprintable escaped (no forged lines)."""
+    text = "" if text is None else text[:limit]
+    return text if text.isprintable() else text.encode("unicode_escape").decode("ascii")
+
+
+def _host_name(netloc: str) -> str:
+    """The host of ``name:port``, ``[v6]:port`` or a bare name, lower-case, without a trailing dot."""
+    netloc = netloc.strip().lower()
+    if netloc.startswith("["):
+        return netloc.split("]", 1)[0] + "]"
+    return netloc.rsplit(":", 1)[0].rstrip(".") if netloc.count(":") == 1 else netloc.rstrip(".")
+
+
+class OneLineHttpErrors(logging.Filter):
+    """aiohttp logs a malformed request (a 10 KB URL, a broken header) with a traceback: one line suffices."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.exc_info and record.exc_info[1] is not None:
+            record.msg, record.args = "%s: %s", (record.getMessage(), str(record.exc_info[1]).splitlines()[0][:200])
+            record.exc_info, record.exc_text = None, None
+        return True
+
+
+class _RateLimitedLog:
+    """At most :data:`LOG_BURST` warnings per :data:`LOG_PERIOD_S`; says how many it held back."""
+
+    def __init__(self) -> None:
+        self._window_start, self._logged, self.suppressed = 0.0, 0, 0
+
+    def warning(self, message: str, *args) -> None:
+        now = time.monotonic()
+        if now - self._window_start > LOG_PERIOD_S:
+            if self.suppressed:
+                log.warning("%d more refused or malformed messages were not logged", self.suppressed)
+            self._window_start, self._logged, self.suppressed = now, 0, 0
+        if self._logged < LOG_BURST:
+            self._logged += 1
+            log.warning(message, *args)
+        else:
+            self.suppressed += 1
 
 
 @dataclass
@@ -78,6 +198,7 @@ class LiveServer:
     record_format: str = "csv"
     calibration_path: Path | None = None
     token: str = field(default_factory=lambda: secrets.token_urlsafe(24))
+    hosts: HostPolicy = field(default_factory=lambda: HostPolicy("127.0.0.1"))
 
     def __post_init__(self) -> None:
         self.state = LiveState()
@@ -86,14 +207,17 @@ class LiveServer:
         self.last_tare: Tare | None = None
         self.saved: list[Path] = []
         self._clients: dict[web.WebSocketResponse, int] = {}
+        self._pending: dict[web.WebSocketResponse, int] = {}
         self._tasks: set[asyncio.Task] = set()
         self._wake: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._static = resources.files("sailforce.live") / "static"
+        static = resources.files("sailforce.live") / "static"
+        self._static = {entry.name: entry for entry in static.iterdir() if entry.is_file()}
+        self._refusals = _RateLimitedLog()
 
     # -- the app --------------------------------------------------------------------------------
     def app(self) -> web.Application:
-        app = web.Application()
+        app = web.Application(client_max_size=MAX_MESSAGE_BYTES, middlewares=[self._check_host])
         app.router.add_get("/", self._index)
         app.router.add_get("/static/{name}", self._static_file)
         app.router.add_get("/favicon.ico", self._favicon)
@@ -116,21 +240,48 @@ class LiveServer:
         for ws in list(self._clients):
             await ws.close()
 
+    @web.middleware
+    async def _check_host(self, request: web.Request, handler) -> web.StreamResponse:
+        """Answer only the Host names of :class:`HostPolicy`, and state changes only from this page's origin."""
+        host = request.headers.get("Host")
+        if not self.hosts.accepts(host):
+            self._refusals.warning("refused a request for Host %s from %s (not a name this server answers to)",
+                                   _shown(host), request.remote)  # fmt: skip
+            return web.Response(status=421, text="this server does not answer to that Host name (DNS rebinding?)\n")
+        origin = request.headers.get("Origin")
+        if origin is not None and request.method != "GET" and not self._same_origin(origin, request):
+            self._refusals.warning("refused a %s from origin %s (the page is served as %s)", request.method, _shown(origin),
+                                   _shown(host))  # fmt: skip
+            return web.json_response({"ok": False, "error": "cross-origin request refused"}, status=403)
+        try:
+            return await handler(request)
+        except RecursionError:
+            return web.json_response({"ok": False, "error": "the body is nested too deeply"}, status=400)
+
+    def _same_origin(self, origin: str, request: web.Request) -> bool:
+        parts = urlsplit(origin)
+        return parts.scheme == "http" and parts.netloc == request.host and self.hosts.accepts(parts.netloc)
+
     def _notify(self) -> None:
         if self._loop is not None and self._wake is not None and not self._wake.is_set():
-            self._loop.call_soon_threadsafe(self._wake.set)
+            try:
+                self._loop.call_soon_threadsafe(self._wake.set)
+            except RuntimeError:  # the loop has closed: the server is gone, the rows go on to other listeners
+                self._loop = None
 
     # -- pages ----------------------------------------------------------------------------------
     async def _index(self, request: web.Request) -> web.Response:
-        page = (self._static / "index.html").read_text(encoding="utf-8").replace("{{TOKEN}}", self.token)
+        """The page; it carries the token only over a loopback Host (elsewhere the page asks for it)."""
+        token = self.token if is_loopback(_host_name(request.host)) else ""
+        page = self._static["index.html"].read_text(encoding="utf-8").replace("{{TOKEN}}", token)
         return web.Response(text=page, content_type="text/html", headers={"Cache-Control": "no-store"})
 
     async def _static_file(self, request: web.Request) -> web.Response:
         name = request.match_info["name"]
         kinds = {".js": "text/javascript", ".css": "text/css", ".svg": "image/svg+xml"}
-        kind = kinds.get(Path(name).suffix)
-        resource = self._static / name
-        if kind is None or "/" in name or name.startswith(".") or not resource.is_file():
+        resource = self._static.get(name)  # only the package's own files, looked up by name: no path is opened
+        kind = kinds.get(Path(name).suffix) if resource is not None else None
+        if kind is None:
             raise web.HTTPNotFound()
         return web.Response(body=resource.read_bytes(), content_type=kind)
 
@@ -143,10 +294,14 @@ class LiveServer:
     # -- the WebSocket --------------------------------------------------------------------------
     async def _websocket(self, request: web.Request) -> web.WebSocketResponse:
         origin = request.headers.get("Origin")
-        if origin is not None and urlsplit(origin).netloc != request.host:
-            log.warning("refused a WebSocket from origin %s (the page is served as %s)", origin, request.host)
+        if origin is not None and not self._same_origin(origin, request):
+            self._refusals.warning("refused a WebSocket from origin %s (the page is served as %s)", _shown(origin),
+                                   _shown(request.host))  # fmt: skip
             raise web.HTTPForbidden(text="cross-origin WebSocket refused")
-        ws = web.WebSocketResponse(heartbeat=10.0)
+        if len(self._clients) >= MAX_CLIENTS:
+            self._refusals.warning("refused a page from %s: %d pages already watch", request.remote, MAX_CLIENTS)
+            raise web.HTTPServiceUnavailable(text=f"{MAX_CLIENTS} pages already watch this server")
+        ws = web.WebSocketResponse(heartbeat=10.0, max_msg_size=MAX_MESSAGE_BYTES)
         await ws.prepare(request)
         await ws.send_str(_dumps(self._hello()))
         self._clients[ws] = -1
@@ -157,13 +312,14 @@ class LiveServer:
                 if message.type == WSMsgType.TEXT:
                     await self._client_message(ws, message.data, request.remote)
                 elif message.type == WSMsgType.BINARY:
-                    log.warning("ignored a binary WebSocket message from %s", request.remote)
+                    self._refusals.warning("ignored a binary WebSocket message from %s", request.remote)
         finally:
             self._clients.pop(ws, None)
+            self._pending.pop(ws, None)
         return ws
 
     async def _client_message(self, ws: web.WebSocketResponse, text: str, peer: str | None) -> None:
-        """A command from the page; anything malformed is logged and ignored."""
+        """A command from the page; anything malformed is logged (at a bounded rate) and ignored."""
         try:
             message = json.loads(text)
             if not isinstance(message, dict) or message.get("type") != "command":
@@ -171,21 +327,43 @@ class LiveServer:
             name = message.get("name")
             if name not in COMMANDS:
                 raise ValueError(f"no command {name!r}")
-        except (ValueError, TypeError) as exc:
-            log.warning("ignored a malformed WebSocket message from %s (%s): %.200r", peer, exc, text)
+        except (ValueError, TypeError, RecursionError) as exc:
+            reason = "nested too deeply" if isinstance(exc, RecursionError) else exc
+            self._refusals.warning("ignored a malformed WebSocket message from %s (%s): %.200r", peer, reason, text)
             return
         if not self._token_ok(message.get("token")):
-            log.warning("refused the command %r from %s: no valid token", name, peer)
-            await ws.send_str(_dumps({"type": "result", "name": name, "ok": False, "error": "refused: no valid token"}))
+            self._refusals.warning("refused the command %r from %s: no valid token", name, peer)
+            await self._send(ws, {"type": "result", "name": name, "ok": False, "error": "refused: no valid token"})
             return
+        if self._pending.get(ws, 0) >= MAX_PENDING_COMMANDS:
+            await self._send(ws, {"type": "result", "name": name, "ok": False,
+                                  "error": f"refused: {MAX_PENDING_COMMANDS} commands are still under way"})  # fmt: skip
+            return
+        self._pending[ws] = self._pending.get(ws, 0) + 1
         task = asyncio.create_task(self._reply(ws, name, message))  # a tare waits for its samples: keep reading meanwhile
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
 
     async def _reply(self, ws: web.WebSocketResponse, name: str, message: dict) -> None:
-        result = await self._run(name, message)
-        if not ws.closed:
-            await ws.send_str(_dumps({"type": "result", "name": name} | result))
+        try:
+            result = await self._run(name, message)
+        finally:
+            if ws in self._pending:
+                self._pending[ws] -= 1
+        await self._send(ws, {"type": "result", "name": name} | result)
+
+    async def _send(self, ws: web.WebSocketResponse, message: dict) -> bool:
+        """Send to one page; a page gone, or not reading for :data:`SEND_TIMEOUT_S`, is dropped (False)."""
+        if ws.closed:
+            return False
+        try:
+            await asyncio.wait_for(ws.send_str(_dumps(message)), SEND_TIMEOUT_S)
+            return True
+        except (ConnectionError, RuntimeError, TimeoutError):
+            self._clients.pop(ws, None)
+            log.warning("dropped a page that stopped reading")
+            asyncio.get_running_loop().create_task(ws.close())
+            return False
 
     async def _broadcast(self) -> None:
         assert self._wake is not None
@@ -195,13 +373,12 @@ class LiveServer:
             except TimeoutError:
                 pass
             self._wake.clear()
-            for ws, since in list(self._clients.items()):
-                message, last = self._update(since)
-                try:
-                    await ws.send_str(_dumps(message))
+            clients = list(self._clients.items())
+            updates = [self._update(since) for _, since in clients]
+            sent = await asyncio.gather(*(self._send(ws, message) for (ws, _), (message, _) in zip(clients, updates)))
+            for (ws, _), (_, last), ok in zip(clients, updates, sent):
+                if ok and ws in self._clients:
                     self._clients[ws] = last
-                except (ConnectionError, RuntimeError):
-                    self._clients.pop(ws, None)
             await asyncio.sleep(UPDATE_PERIOD_S)
 
     def _hello(self) -> dict:
@@ -230,13 +407,17 @@ class LiveServer:
     async def _command_request(self, request: web.Request) -> web.Response:
         name = request.path.rsplit("/", 1)[1]
         if not self._token_ok(request.headers.get(TOKEN_HEADER)):
-            log.warning("refused the command %r from %s: no valid token", name, request.remote)
+            self._refusals.warning("refused the command %r from %s: no valid token", name, request.remote)
             return web.json_response({"ok": False, "error": f"refused: the {TOKEN_HEADER} header must carry the page's token"},
                                      status=403)  # fmt: skip
         try:
             body = await request.json() if request.can_read_body else {}
             if not isinstance(body, dict):
                 raise ValueError("not a JSON object")
+        except web.HTTPRequestEntityTooLarge:
+            return web.json_response({"ok": False, "error": f"the body is over {MAX_MESSAGE_BYTES} bytes"}, status=413)
+        except RecursionError:
+            return web.json_response({"ok": False, "error": "the body is nested too deeply"}, status=400)
         except ValueError as exc:
             return web.json_response({"ok": False, "error": f"the body is not a JSON object ({exc})"}, status=400)
         result = await self._run(name, body)
@@ -246,6 +427,8 @@ class LiveServer:
         try:
             if name == "tare":
                 result = await self._tare(args)
+            elif name == "cancel-tare":
+                result = {"cancelled": self.pipeline.cancel_tare()}
             elif name == "save-calibration":
                 result = self._save_calibration()
             else:
@@ -311,6 +494,7 @@ def _dumps(value: object) -> str:
 
 async def serve(server: LiveServer, host: str, port: int, on_ready) -> None:
     """Serve until cancelled (Ctrl-C); ``on_ready(url)`` once the socket listens."""
+    logging.getLogger("aiohttp.server").addFilter(OneLineHttpErrors())
     runner = web.AppRunner(server.app(), access_log=None)
     await runner.setup()
     try:

@@ -1,7 +1,9 @@
 // sail live: the page's side of the WebSocket (sailforce/live/server.py).  No library, nothing from the network.
 "use strict";
 
-const TOKEN = document.querySelector('meta[name="sail-token"]').content;
+// The server puts its token in the page only when the page is opened over a loopback address; elsewhere the
+// user types the token that `sail live` printed (kept for this tab only).
+let TOKEN = document.querySelector('meta[name="sail-token"]').content || sessionStorage.getItem("sail-token") || "";
 const $ = (id) => document.getElementById(id);
 const STATUS_CLASS = { ok: "ok", extrapolated: "warn", "motion-unknown": "warn", saturated: "bad", singular: "bad", invalid: "bad" };
 const COLOURS = { fx: "#1f77b4", fy: "#d62728", f: "#222" };
@@ -100,7 +102,12 @@ function showMessage(text, error) {
 }
 
 function onResult(message) {
-  if (!message.ok) { showMessage(`${message.name}: ${message.error}`, true); return; }
+  if (!message.ok) {
+    if (/no valid token/.test(message.error) && !document.querySelector('meta[name="sail-token"]').content) {
+      TOKEN = ""; sessionStorage.removeItem("sail-token");
+    }
+    showMessage(`${message.name}: ${message.error}`, true); return;
+  }
   if (message.name === "tare") {
     const unit = message.unit;
     showMessage(`tared on ${message.samples} samples: offsets ${message.offsets.map((o) => o.toPrecision(7)).join(", ")} ${unit}` +
@@ -117,6 +124,11 @@ function onResult(message) {
 
 function command(name, args) {
   if (!socket || socket.readyState !== WebSocket.OPEN) { showMessage("not connected", true); return; }
+  if (!TOKEN) {
+    TOKEN = (window.prompt("This page is not on this machine: enter the token that `sail live` printed") || "").trim();
+    if (!TOKEN) { showMessage(`${name}: no token given`, true); return; }
+    sessionStorage.setItem("sail-token", TOKEN);
+  }
   socket.send(JSON.stringify(Object.assign({ type: "command", token: TOKEN, name }, args || {})));
 }
 
