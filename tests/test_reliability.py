@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sailforce import Arm
 from sailforce.calibration.export_c import calibration_header, comment_text
 from sailforce.calibration.file import TEXT_FIELDS, Calibration, CalibrationFileError, checksum
 from sailforce.io.files import OutputPathError, atomic_writer
@@ -153,3 +154,200 @@ def test_symlinked_output_replaces_its_regular_target_and_stays_a_link(tmp_path)
     with atomic_writer(tmp_path / "link.txt") as stream:
         stream.write("new\n")
     assert (tmp_path / "link.txt").is_symlink() and (tmp_path / "real.txt").read_text() == "new\n"
+
+
+# -- The solid cache is trusted and followed ---------------------------------------------------------------------
+def _fake_solver(task):
+    """A pose's result without CalculiX: the pin-joint torques J^T, and deflections proportional to them."""
+    from sailforce.kinematics import jacobian
+
+    torques = np.swapaxes(jacobian(Arm(), task.theta1, task.theta2), -1, -2)
+    return {"theta1": task.theta1, "theta2": task.theta2, "torques": torques.tolist(), "deflection": (1e-6 * torques).tolist(),
+            "relative": (1e-6 * torques).tolist(), "moment_balance": [0.0, 0.0], "dofs": 1234}  # fmt: skip
+
+
+def _seeded_cache(directory, settings, depth=0.01):
+    """A cache holding the cell's calibrated depth, so that no test needs CalculiX."""
+    from sailforce.io.robotfile import robot_data
+    from sailforce.robot import Robot
+    from sailforce.solid.cache import SolidCache
+    from sailforce.solid.sweep import MODEL_VERSION
+
+    data = robot_data(Robot())
+    inputs = {"kind": "cell", "version": MODEL_VERSION, "cell": [data["loadcells"], data["materials"]["loadcells"]],
+              "settings": settings.as_dict()}  # fmt: skip
+    SolidCache(directory).write(inputs, {"depth": depth, "achieved": 1e-4, "target": 1e-4, "solves": 2})
+    return inputs
+
+
+POSES = [(float(np.radians(60.0)), float(np.radians(20.0))), (float(np.radians(90.0)), 0.0)]
+
+
+def _sweep(directory, calls):
+    from sailforce.robot import Robot
+    from sailforce.solid.sweep import SolidSettings, run_poses
+
+    def solver(task):
+        calls.append((task.theta1, task.theta2))
+        return _fake_solver(task)
+
+    return run_poses(Robot(), POSES, SolidSettings(0.004), cache_dir=directory, solver=solver)
+
+
+def _entries(directory):
+    return sorted(p for p in directory.glob("*.json") if json.loads(p.read_text())["inputs"]["kind"] == "pose")
+
+
+def test_solid_cache_entries_are_checked_doubled_torques_and_swapped_poses(tmp_path):
+    """Plain JSON entries were used as they were: doubled torques, a swapped pose and a tripled depth went unnoticed."""
+    from sailforce.solid.sweep import SolidSettings
+
+    _seeded_cache(tmp_path, SolidSettings(0.004))
+    calls: list = []
+    first = _sweep(tmp_path, calls)
+    assert len(calls) == 2 and first.cached == 0 and not first.notes
+    assert _sweep(tmp_path, calls).cached == 2 and len(calls) == 2
+    a, b = _entries(tmp_path)
+    doubled = json.loads(a.read_text())
+    doubled["value"]["torques"] = (2 * np.asarray(doubled["value"]["torques"])).tolist()  # checksum left as it was
+    a.write_text(json.dumps(doubled))
+    resealed = json.loads(b.read_text())
+    resealed["value"]["theta1"], resealed["value"]["theta2"] = resealed["value"]["theta2"], resealed["value"]["theta1"]
+    from sailforce.solid.cache import _canonical
+
+    resealed.pop("sha256")
+    resealed["sha256"] = __import__("hashlib").sha256(_canonical(resealed)).hexdigest()  # a careful forger
+    b.write_text(json.dumps(resealed))
+    calls.clear()
+    again = _sweep(tmp_path, calls)
+    assert len(calls) == 2 and again.cached == 0
+    assert any("checksum" in n for n in again.notes) and any("pose" in n for n in again.notes)
+    for got, want in zip(again.responses, first.responses):
+        np.testing.assert_array_equal(got.torques, want.torques)
+
+
+def test_solid_cache_refuses_an_entry_for_another_request(tmp_path):
+    """An entry copied under another entry's name (its own checksum intact) answers another request: refused."""
+    from sailforce.solid.sweep import SolidSettings
+
+    _seeded_cache(tmp_path, SolidSettings(0.004))
+    _sweep(tmp_path, [])
+    a, b = _entries(tmp_path)
+    a.write_bytes(b.read_bytes())
+    calls: list = []
+    again = _sweep(tmp_path, calls)
+    assert len(calls) == 1 and any("key" in n for n in again.notes)
+
+
+def test_solid_cache_never_follows_or_writes_through_a_symlink(tmp_path):
+    """An entry that was a symlink had its target overwritten."""
+    from sailforce.solid.sweep import SolidSettings
+
+    _seeded_cache(tmp_path, SolidSettings(0.004))
+    _sweep(tmp_path, [])
+    a, _ = _entries(tmp_path)
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me\n")
+    a.unlink()
+    os.symlink(precious, a)
+    calls: list = []
+    again = _sweep(tmp_path, calls)
+    assert len(calls) == 1 and any("symlink" in n for n in again.notes)
+    assert precious.read_text() == "keep me\n" and not a.is_symlink() and json.loads(a.read_text())["value"]["dofs"] == 1234
+
+
+def test_solid_cache_with_a_negative_depth_says_it_is_the_cache(tmp_path):
+    """A negative cached cell depth was reported as a mesh error, with no word about the cache."""
+    from sailforce.robot import Robot
+    from sailforce.solid.cache import SolidCache
+    from sailforce.solid.sweep import SolidSettings, cell_depth
+
+    inputs = _seeded_cache(tmp_path, SolidSettings(0.004), depth=-0.01)
+    cache = SolidCache(tmp_path)
+    assert cache.read(inputs, lambda v: v) is not None  # the entry itself is intact: its number is the problem
+    from sailforce.solid import sweep
+
+    calibrated = []
+    original = sweep.calibrate_depth
+    sweep.calibrate_depth = lambda cell, mesh: calibrated.append(mesh) or original.__globals__["CellDepth"](0.012, 1e-4, 1e-4, 1)
+    try:
+        depth = cell_depth(Robot(), SolidSettings(0.004), cache)
+    finally:
+        sweep.calibrate_depth = original
+    assert calibrated and depth.depth == 0.012
+    assert any("cache entry" in n and "positive" in n for n in cache.notes)
+
+
+def test_a_read_only_solid_cache_solves_warns_and_remembers(tmp_path):
+    from sailforce.solid.sweep import SolidSettings
+
+    _seeded_cache(tmp_path, SolidSettings(0.004))
+    os.chmod(tmp_path, 0o555)
+    try:
+        if os.access(tmp_path, os.W_OK):  # root writes anywhere: make the folder unwritable another way
+            os.chmod(tmp_path, 0o755)
+            (tmp_path / "blocker").mkdir()
+            for task_name in (f"{k}.json" for k in _pose_keys()):
+                (tmp_path / task_name).mkdir()  # a folder where the entry would go cannot be replaced by a file
+        calls: list = []
+        first = _sweep(tmp_path, calls)
+        assert len(calls) == 2 and any("cannot be written" in n and "memory" in n for n in first.notes)
+        again = _sweep(tmp_path, calls)
+        assert len(calls) == 2 and again.cached == 2  # kept in memory for this process
+    finally:
+        os.chmod(tmp_path, 0o755)
+
+
+def _pose_keys():
+    from sailforce.io.robotfile import robot_data
+    from sailforce.robot import Robot
+    from sailforce.solid.sweep import PoseTask, SolidSettings
+
+    return [PoseTask(robot_data(Robot()), a, b, SolidSettings(0.004), 0.01).key for a, b in POSES]
+
+
+# -- Ctrl-C drops a row ------------------------------------------------------------------------------------------
+def _dynamic_calibration(cals) -> Path:
+    d, _, _ = cals
+    return d / "dynamic.json"
+
+
+@pytest.mark.parametrize("after_rows", [120, 170, 230])
+def test_ctrl_c_with_a_dynamic_term_keeps_every_row(cals, tmp_path, after_rows):
+    """`gen | sail estimate --calibration dynamic.json - -o x.csv`, then SIGINT: the row half a window (50 rows)
+    before the last was lost in 4 runs of 4.  Every row read must come out, in order, with none missing."""
+    import signal
+    import time
+
+    cal = Calibration.load(_dynamic_calibration(cals))
+    o1, o2 = cal.offsets
+    rows = "".join(f"{0.001 * k:.3f},{60 + 10 * np.sin(k / 500):.6f},{10 * np.cos(k / 700):.6f},{o1 + 900:.0f},{o2 - 400:.0f}\n"
+                   for k in range(200_000))  # fmt: skip
+    process = subprocess.Popen([str(SAIL), "estimate", "--calibration", str(_dynamic_calibration(cals)), "-", "-o", "x.csv", "-q"],
+                               cwd=tmp_path, stdin=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
+
+    def feed():
+        try:
+            process.stdin.write(b"t_s,theta1_deg,theta2_deg,load1,load2\n" + rows.encode())
+            process.stdin.close()
+        except (BrokenPipeError, ValueError):
+            pass
+
+    import threading
+
+    writer = threading.Thread(target=feed, daemon=True)
+    writer.start()
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and process.poll() is None:
+        written = list(tmp_path.glob(".x.csv.*.tmp"))
+        if written and written[0].read_bytes().count(b"\n") >= after_rows:
+            break
+        time.sleep(0.002)
+    assert process.poll() is None, "the estimate ended before it could be interrupted"
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130 and b"Traceback" not in stderr, stderr
+    lines = (tmp_path / "x.csv").read_text().splitlines()
+    assert len(lines) > after_rows, "too few rows to test the half window"
+    t = np.array([float(line.split(",", 1)[0]) for line in lines[1:]])
+    np.testing.assert_array_equal(np.rint(t * 1000).astype(int), np.arange(t.size))  # a contiguous prefix: no row lost

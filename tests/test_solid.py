@@ -143,7 +143,7 @@ def test_the_cache_solves_only_what_changed(tmp_path, monkeypatch):
     entry = tmp_path / f"{PoseTask(robot_data(Robot()), *POSE, settings, first.depth.depth).key}.json"
     entry.write_text("{damaged")  # a damaged entry is solved again and replaced
     repaired = run_poses(Robot(), [POSE], settings, cache_dir=tmp_path, solver=counting)
-    assert len(calls) == 4 and repaired.cached == 0 and json.loads(entry.read_text())["dofs"] > 0
+    assert len(calls) == 4 and repaired.cached == 0 and json.loads(entry.read_text())["value"]["dofs"] > 0
     bonded = run_poses(Robot().with_joints("bonded"), [POSE], settings, cache_dir=tmp_path, solver=counting)
     assert len(calls) == 5 and bonded.cached == 0
 

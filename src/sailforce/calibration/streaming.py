@@ -28,6 +28,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
+from .._signals import signals_deferred
 from ..io.files import atomic_writer
 from ..io.tables import (
     READING_COLUMNS,
@@ -369,8 +370,9 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
 
     try:
         for chunk in csv_chunks(source, header, needed, _whole_lines(lines), fast=False):
-            for ready in stage.push(chunk) if stage is not None else [(chunk, None)]:
-                write(*ready)
+            with signals_deferred():  # a row the stage has released is written before Ctrl-C acts
+                for ready in stage.push(chunk) if stage is not None else [(chunk, None)]:
+                    write(*ready)
     except KeyboardInterrupt:  # keep every row read: those still waiting for their window go out unknown
         for ready in stage.finish() if stage is not None else ():
             write(*ready)

@@ -47,3 +47,9 @@ def _line(description: str, done: float, total: float | None, unit: str, elapsed
     fraction = min(done / total, 1.0)
     left = elapsed * (1 - fraction) / fraction if fraction > 0 else float("inf")
     return f"{description}: {fraction:.0%} of {total:,.0f} {unit}, {elapsed:.0f} s elapsed, about {left:.0f} s left"
+
+
+def print_notes(console: Console, notes) -> None:
+    """Each note for people (a damaged cache entry, a cache not written) as a warning line."""
+    for note in notes:
+        console.print(f"[bold yellow]warning:[/bold yellow] {note}", highlight=False)

@@ -16,6 +16,7 @@ from ..robot import JOINT_MODELS
 from ..study import ModelId, StudyResult, run_study
 from . import cli
 from ._options import load_robot, robot_option
+from ._progress import print_notes
 
 DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
 
@@ -131,6 +132,7 @@ def _solid_pass(output: Path, robot, study: StudyResult, mesh_mm: float, dpi: in
     started = time.perf_counter()
     result = run_poses(robot, poses, SolidSettings(mesh_size=mesh_mm / 1e3), cache_dir=default_cache_dir())
     seconds = time.perf_counter() - started
+    print_notes(Console(stderr=True), result.notes)
     rows = [response_rows(result, s) for s in sweeps]
     if rows[0] is None or rows[1] is None:
         raise DataError(f"the solid failed at {len(result.failures)} poses: {next(iter(result.failures.values()))}")

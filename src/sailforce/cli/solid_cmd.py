@@ -15,7 +15,7 @@ from ..io.files import atomic_writer, check_output, write_json
 from ..study import Protocol
 from . import cli
 from ._options import FINITE, load_robot, robot_option
-from ._progress import progress_bar
+from ._progress import print_notes, progress_bar
 
 #: Default element size [mm]: 2 mm solves a 2-D pose in about 10 s on one core.
 DEFAULT_MESH_MM = 2.0
@@ -73,6 +73,7 @@ def solid_command(robot_path, joints, theta1_deg, theta2_deg, mesh_mm, force_n, 
     """
     from ..report.solid_figure import readings_figure, solid_stress_figure
     from ..solid.arm import solve_pose
+    from ..solid.cache import SolidCache
     from ..solid.compare import READINGS, compare, curves, frame_readings, pose_deg
     from ..solid.sweep import cell_depth, default_cache_dir
     from ..sweep import check_not_singular
@@ -84,8 +85,10 @@ def solid_command(robot_path, joints, theta1_deg, theta2_deg, mesh_mm, force_n, 
     settings = _settings(mesh_mm)
     console = Console(stderr=True)
     started = time.perf_counter()
+    cache = SolidCache(cache_dir or default_cache_dir())
     with console.status("calibrating the load cell's depth"):
-        depth = cell_depth(robot, settings, cache_dir or default_cache_dir())
+        depth = cell_depth(robot, settings, cache)
+    print_notes(console, cache.notes)
     with console.status(f"solving the solid at {pose_deg(theta1, theta2)} ({mesh_mm:g} mm mesh)"):
         response = solve_pose(robot, theta1, theta2, cell_depth=depth.depth, mesh_size=settings.mesh_size,
                               stresses=True, workdir=output / "ccx" if keep_deck else None)  # fmt: skip
@@ -215,6 +218,7 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, cache_dir, n
             jt = torque_rows(robot.arm, *np.array(poses).T)
             summary["torque_vs_jt_max_relative"] = float(np.max(np.abs(torques - jt)) / np.max(np.abs(jt)))
     write_json(output / "results.json", summary)
+    print_notes(console, result.notes)
     console.print(f"{len(poses)} poses ({result.cached} from the cache) in {seconds:.1f} s; wrote {output}", highlight=False)
     if result.failures:
         for item in summary["failures"]:
@@ -255,6 +259,7 @@ def cell_fit_command(robot_path, mesh_mm, link, check, cache_dir, force, output)
     compliance_mm, after which the frame's readings follow the solid's.
     """
     from ..io.robotfile import template
+    from ..solid.cache import SolidCache
     from ..solid.cell import fit_compliance, with_compliance
     from ..solid.sweep import cell_depth, default_cache_dir
 
@@ -264,9 +269,11 @@ def cell_fit_command(robot_path, mesh_mm, link, check, cache_dir, force, output)
     robot = _prepare(robot_path, None)
     settings = _settings(mesh_mm)
     console = Console(stderr=True)
+    cache = SolidCache(cache_dir or default_cache_dir())
     with console.status("calibrating the cell's depth and fitting its compliance"):
-        depth = cell_depth(robot, settings, cache_dir or default_cache_dir())
+        depth = cell_depth(robot, settings, cache)
         fit = fit_compliance(robot, depth, settings.mesh_size, link)
+    print_notes(console, cache.notes)
     fitted = with_compliance(robot, fit)
     out = Console()
     table = Table(title=f"load-cell compliance, in {link} (near face clamped; far face loaded)")

@@ -2,12 +2,13 @@
 
 A pose's task meshes, solves and parses (:func:`solve_task`); it carries the
 robot as its robot-file tables, so it pickles small and any worker with
-sailforce and ccx can run it.  Results are cached as JSON files named by the
-SHA-256 of everything that decides them (:func:`task_key`): the robot's tables,
-the pose, the mesh size, the cell's calibrated depth and
-:data:`MODEL_VERSION`.  A rerun solves only the poses whose key is new; the
-client writes the cache (workers need not share its disk), each file
-atomically, so a killed sweep leaves no half-written entry.
+sailforce and ccx can run it.  Results are cached (:mod:`sailforce.solid.cache`)
+under the SHA-256 of everything that decides them (:func:`task_inputs`): the
+robot's tables, the pose, the mesh size, the cell's calibrated depth and
+:data:`MODEL_VERSION`; each entry holds those inputs and a checksum, and is
+checked on every read.  A rerun solves only the poses whose entry is new or
+damaged; the client writes the cache (workers need not share its disk), each
+file atomically, so a killed sweep leaves no half-written entry.
 
 Failures: :func:`sailforce.distributed.run_tasks` retries a task that raised
 or whose worker died; a pose that still fails comes back with its error in
@@ -16,8 +17,6 @@ or whose worker died; a pose that still fails comes back with its error in
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import os
 from collections.abc import Callable
@@ -27,14 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from ..distributed import DEFAULT_RETRIES, run_tasks
-from ..io.files import atomic_writer
 from ..io.robotfile import robot_data, robot_from_data
 from ..robot import Robot
 from .arm import SolidResponse, check_joints, solve_pose
+from .cache import SolidCache, cache_key
 from .cell import CellDepth, calibrate_depth
 
 #: Bump when a change to the solid model changes its results: every cached pose is then solved again.
-MODEL_VERSION = 1
+#: 2: entries hold their inputs and a checksum (sailforce.solid.cache).
+MODEL_VERSION = 2
 #: The cache directory when none is given: $SAIL_CACHE_DIR, else $XDG_CACHE_HOME/sailforce/solid.
 CACHE_ENV = "SAIL_CACHE_DIR"
 
@@ -71,11 +71,29 @@ class PoseTask:
         return task_key(self)
 
 
+def task_inputs(task: PoseTask) -> dict:
+    """Everything that decides a pose's result (module docstring), as JSON."""
+    return {"kind": "pose", "version": MODEL_VERSION, "robot": task.robot, "pose": [repr(task.theta1), repr(task.theta2)],
+            "settings": task.settings.as_dict(), "cell_depth": repr(task.cell_depth)}  # fmt: skip
+
+
 def task_key(task: PoseTask) -> str:
-    """SHA-256 of everything that decides a pose's result (module docstring)."""
-    content = {"version": MODEL_VERSION, "robot": task.robot, "pose": [repr(task.theta1), repr(task.theta2)],
-               "settings": task.settings.as_dict(), "cell_depth": repr(task.cell_depth)}  # fmt: skip
-    return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()
+    """SHA-256 of :func:`task_inputs`: the name of the pose's cache entry."""
+    return cache_key(task_inputs(task))
+
+
+def checked_response(value: dict, task: PoseTask) -> SolidResponse:
+    """A cached or solved pose's result, refused (``ValueError``) unless it is the task's pose, in shape and finite."""
+    response = SolidResponse.from_dict(value)
+    if (response.theta1, response.theta2) != (task.theta1, task.theta2):
+        raise ValueError(f"it holds the pose ({response.theta1!r}, {response.theta2!r}), not the one asked for")
+    for name, shape in (("torques", (2, 2)), ("deflection", (2, 2)), ("relative", (2, 2)), ("moment_balance", (2,))):
+        array = getattr(response, name)
+        if array.shape != shape or array.dtype.kind != "f" or not np.all(np.isfinite(array)):
+            raise ValueError(f"{name} is not a finite {shape} array")
+    if response.dofs <= 0:
+        raise ValueError(f"dofs = {response.dofs}")
+    return response
 
 
 def solve_task(task: PoseTask) -> dict:
@@ -86,20 +104,25 @@ def solve_task(task: PoseTask) -> dict:
     return response.as_dict()
 
 
-def cell_depth(robot: Robot, settings: SolidSettings, cache_dir: Path | None) -> CellDepth:
+def cell_depth(robot: Robot, settings: SolidSettings, cache: SolidCache | Path | None) -> CellDepth:
     """The calibrated cell depth (:func:`sailforce.solid.cell.calibrate_depth`), cached like the poses."""
-    data = robot_data(robot)["loadcells"], robot_data(robot)["materials"]["loadcells"]
-    key = hashlib.sha256(json.dumps({"version": MODEL_VERSION, "cell": data, "settings": settings.as_dict()},
-                                    sort_keys=True).encode()).hexdigest()  # fmt: skip
-    path = cache_dir / f"cell-{key}.json" if cache_dir is not None else None
-    if path is not None and path.exists():
-        try:
-            return CellDepth(**json.loads(path.read_text()))
-        except (ValueError, TypeError):
-            pass  # a damaged entry is solved again and replaced
+    cache = cache if isinstance(cache, SolidCache) else SolidCache(cache)
+    data = robot_data(robot)
+    inputs = {"kind": "cell", "version": MODEL_VERSION, "cell": [data["loadcells"], data["materials"]["loadcells"]],
+              "settings": settings.as_dict()}  # fmt: skip
+    cached = cache.read(inputs, _checked_depth)
+    if isinstance(cached, CellDepth):
+        return cached
     depth = calibrate_depth(robot.loadcell, settings.mesh_size)
-    if path is not None:
-        _store(path, depth.__dict__)
+    cache.write(inputs, depth.__dict__)
+    return depth
+
+
+def _checked_depth(value: dict) -> CellDepth:
+    depth = CellDepth(**value)
+    lengths = (depth.depth, depth.achieved, depth.target)
+    if not all(isinstance(x, float) and math.isfinite(x) and x > 0 for x in lengths) or type(depth.solves) is not int:
+        raise ValueError(f"the cell's depth, deflections and solves must be positive numbers, not {value}")
     return depth
 
 
@@ -112,6 +135,7 @@ class SweepResult:
     cached: int
     failures: dict[int, str] = field(default_factory=dict)  #: pose index -> error
     depth: CellDepth | None = None
+    notes: tuple[str, ...] = ()  #: what the cache did that people should know: damaged entries, a cache not written
 
     @property
     def complete(self) -> bool:
@@ -125,14 +149,15 @@ def run_poses(robot: Robot, poses, settings: SolidSettings = SolidSettings(), *,
     check_joints(robot)
     advance = advance or (lambda amount: None)
     poses = tuple((float(a), float(b)) for a, b in poses)
-    depth = cell_depth(robot, settings, cache_dir)
+    cache = SolidCache(cache_dir)
+    depth = cell_depth(robot, settings, cache)
     data = robot_data(robot)
     tasks = [PoseTask(data, a, b, settings, depth.depth) for a, b in poses]
     responses: list[SolidResponse | None] = [None] * len(tasks)
     todo = []
     for k, task in enumerate(tasks):
-        entry = _load(cache_dir / f"{task.key}.json") if cache_dir is not None else None
-        if entry is not None:
+        entry = cache.read(task_inputs(task), lambda value, task=task: checked_response(value, task))
+        if isinstance(entry, SolidResponse):
             responses[k] = entry
             advance(1)
         else:
@@ -141,28 +166,14 @@ def run_poses(robot: Robot, poses, settings: SolidSettings = SolidSettings(), *,
     outcomes = run_tasks(solver, [tasks[k] for k in todo], workers=workers, scheduler=scheduler, retries=retries,
                          advance=advance) if todo else []  # fmt: skip
     for k, outcome in zip(todo, outcomes):
-        if outcome.ok:
-            responses[k] = SolidResponse.from_dict(outcome.value)
-            if cache_dir is not None:
-                _store(cache_dir / f"{tasks[k].key}.json", outcome.value)
-        else:
-            failures[k] = str(outcome.error)
-    return SweepResult(poses, tuple(responses), len(tasks) - len(todo), failures, depth)
-
-
-def _load(path: Path) -> SolidResponse | None:
-    try:
-        return SolidResponse.from_dict(json.loads(path.read_text()))
-    except FileNotFoundError:
-        return None
-    except (ValueError, KeyError, TypeError):
-        return None  # damaged: solved again, and the new result replaces it
-
-
-def _store(path: Path, value: dict) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_writer(path) as stream:
-        json.dump(value, stream)
+        try:
+            if not outcome.ok:
+                raise ValueError(outcome.error)
+            responses[k] = checked_response(outcome.value, tasks[k])
+            cache.write(task_inputs(tasks[k]), outcome.value)
+        except (ValueError, KeyError, TypeError) as exc:
+            failures[k] = str(exc)
+    return SweepResult(poses, tuple(responses), len(tasks) - len(todo), failures, depth, tuple(cache.notes))
 
 
 def seed_poses(protocol) -> tuple[list[tuple[float, float]], tuple[slice, slice]]:
