@@ -351,3 +351,223 @@ def test_ctrl_c_with_a_dynamic_term_keeps_every_row(cals, tmp_path, after_rows):
     assert len(lines) > after_rows, "too few rows to test the half window"
     t = np.array([float(line.split(",", 1)[0]) for line in lines[1:]])
     np.testing.assert_array_equal(np.rint(t * 1000).astype(int), np.arange(t.size))  # a contiguous prefix: no row lost
+
+
+# -- `sail reproduce --robot FILE` silently replaces the file's joints; the reading is not in the robot file --------
+PER_JOINT_ROBOT = """[links]
+l1 = 0.2
+l2 = 0.3
+l3 = 0.45
+l4 = 0.3
+
+[loadcells]
+reading = "bridge"
+
+[joints]
+model = "bonded"
+
+[joints.P1]
+model = "spring"
+stiffness = 170
+"""
+
+
+def _study_inputs(tmp_path, monkeypatch, *args):
+    """What `sail reproduce` hands the study (its robot and reading), and the command's output."""
+    from click.testing import CliRunner
+
+    from sailforce.cli import cli, reproduce_cmd
+    from sailforce.errors import SailError
+
+    seen = {}
+
+    def study(robot, transduction, **kwargs):
+        seen.update(robot=robot, transduction=transduction)
+        raise SailError("stopped after the study's inputs")
+
+    monkeypatch.setattr(reproduce_cmd, "run_study", study)
+    (tmp_path / "robot.toml").write_text(PER_JOINT_ROBOT)
+    result = CliRunner().invoke(cli, ["reproduce", "-o", str(tmp_path / "out"), "--robot", str(tmp_path / "robot.toml"),
+                                      "--no-seed-model", *args])  # fmt: skip
+    assert result.exit_code == 1 and "stopped after" in result.output, result.output
+    return seen, result.output
+
+
+def test_reproduce_keeps_the_robot_files_joints_and_reading(tmp_path, monkeypatch):
+    """--joints defaulted to bonded and always applied, dropping the file's per-joint P1 spring."""
+    seen, output = _study_inputs(tmp_path, monkeypatch)
+    joints = seen["robot"].joints
+    assert joints.at("P1").model == "spring" and joints.at("P1").stiffness == 170 and joints.at("P2").model == "bonded"
+    assert seen["transduction"] == "bridge" and "overrides" not in output
+
+
+def test_reproduce_says_when_its_options_override_the_robot_file(tmp_path, monkeypatch):
+    seen, output = _study_inputs(tmp_path, monkeypatch, "--joints", "pin", "--transduction", "deflection")
+    assert seen["robot"].joints.label == "pin" and seen["transduction"] == "deflection"
+    assert "--joints pin overrides the robot file's joints (P1 spring 170, P2 bonded, P3 bonded)" in output
+    assert "--transduction deflection overrides the robot file's reading = 'bridge'" in output
+
+
+def test_reproduce_without_a_robot_file_is_as_before(monkeypatch):
+    from rich.console import Console
+
+    from sailforce.cli._options import robot_with_joints
+
+    robot = robot_with_joints(None, None, "bonded", Console())
+    assert robot.joints.label == "bonded" and robot.loadcell.reading == ""
+
+
+def test_the_reading_is_a_robot_file_key_that_round_trips(tmp_path):
+    from sailforce.io.robotfile import load_robot_file, robot_data, robot_from_data, template
+
+    (tmp_path / "robot.toml").write_text(PER_JOINT_ROBOT)
+    robot = load_robot_file(tmp_path / "robot.toml").robot
+    assert robot.loadcell.reading == "bridge"
+    (tmp_path / "again.toml").write_text(template(robot))
+    assert load_robot_file(tmp_path / "again.toml").robot == robot
+    assert robot_from_data(robot_data(robot)) == robot
+    (tmp_path / "bad.toml").write_text(PER_JOINT_ROBOT.replace('"bridge"', '"strain"'))
+    from sailforce.errors import RobotFileError
+
+    with pytest.raises(RobotFileError, match="reading"):
+        load_robot_file(tmp_path / "bad.toml")
+
+
+def test_identify_writes_the_reading_it_fitted_under(tmp_path):
+    """identified.toml did not say that it was fitted under the bridge reading; every later command assumed its own."""
+    from click.testing import CliRunner
+
+    from sailforce.cli import cli
+    from sailforce.io.robotfile import load_robot_file
+
+    result = CliRunner().invoke(cli, ["identify", "--table4", "seed", "--free", "loadcells.position", "--transduction", "bridge",
+                                      "--starts", "0", "-q", "-o", str(tmp_path / "id")])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert load_robot_file(tmp_path / "id" / "identified.toml").robot.loadcell.reading == "bridge"
+
+
+def test_live_refuses_a_calibration_of_another_arm(cals, tmp_path):
+    """`sail live --simulate --robot OTHER` gave 7x the error without a word."""
+    from click.testing import CliRunner
+
+    from sailforce.cli import cli
+
+    d, _, _ = cals
+    (tmp_path / "other.toml").write_text("[links]\nl1 = 0.25\nl2 = 0.3\nl3 = 0.5\nl4 = 0.3\n")
+    result = CliRunner().invoke(cli, ["live", "--calibration", str(d / "static.json"), "--simulate", "--robot",
+                                      str(tmp_path / "other.toml"), "--port", "0"])  # fmt: skip
+    assert result.exit_code == 2 and "another arm" in result.output and "l1 = 0.25" in result.output
+
+
+# -- t_s in milliseconds; an angle that wraps -----------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def task_session(tmp_path_factory):
+    """A 4-reach task session of simulated rig 1 (the rig the `cals` calibrations are of), and its truth."""
+    import pandas as pd
+
+    d = tmp_path_factory.mktemp("task")
+    result = subprocess.run([str(SAIL), "simulate-motion", "--session", "task", "--rig", "1", "--reaches", "4", "-o", "task.csv"],
+                            cwd=d, capture_output=True, text=True)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    return d, pd.read_csv(d / "task.csv")
+
+
+def _estimate(cal_path, table, tmp_path, name):
+    import pandas as pd
+
+    table.to_csv(tmp_path / f"{name}.csv", index=False, float_format="%.9g")
+    result = subprocess.run([str(SAIL), "estimate", "--calibration", str(cal_path), f"{name}.csv", "-o", f"{name}.out.csv"],
+                            cwd=tmp_path, capture_output=True, text=True)  # fmt: skip
+    return result, (pd.read_csv(tmp_path / f"{name}.out.csv") if result.returncode == 0 else None)
+
+
+def test_t_s_in_milliseconds_is_refused_naming_the_unit(cals, task_session, tmp_path):
+    """With t_s x 1000, 2,096 of 2,100 rows came out ok at 1.89 N RMS instead of 0.061 N, with no warning."""
+    d, _, _ = cals
+    _, table = task_session
+    result, _ = _estimate(d / "dynamic.json", table.assign(t_s=table.t_s * 1000), tmp_path, "ms")
+    assert result.returncode == 1 and "milliseconds" in result.stderr and "Traceback" not in result.stderr
+    assert len([line for line in result.stderr.splitlines() if line.strip()]) == 1
+    assert not (tmp_path / "ms.out.csv").exists()
+    seconds, out = _estimate(d / "dynamic.json", table, tmp_path, "s")
+    assert seconds.returncode == 0 and (out.status == "ok").mean() > 0.9
+
+
+def test_t_s_in_milliseconds_on_a_stream_ends_it_with_the_unit(cals, task_session, tmp_path):
+    d, _, _ = cals
+    _, table = task_session
+    text = table.assign(t_s=table.t_s * 1000).to_csv(index=False, float_format="%.9g")
+    result = subprocess.run([str(SAIL), "estimate", "--calibration", str(d / "dynamic.json"), "-", "-o", "x.csv"], cwd=tmp_path,
+                            input=text, capture_output=True, text=True)  # fmt: skip
+    assert result.returncode == 1 and "milliseconds" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_an_angle_that_wraps_is_unwrapped_before_differentiating(cals, task_session, tmp_path):
+    """theta2 written as mod(theta2, 360) across 0 gave 50 ok rows with errors up to 5,120 N where the force was 17 N."""
+    d, _, _ = cals
+    _, table = task_session
+    assert (table.theta2_deg < 0).any() and (table.theta2_deg > 0).any()  # the session crosses 0
+    _, plain = _estimate(d / "dynamic.json", table, tmp_path, "plain")
+    result, wrapped = _estimate(d / "dynamic.json", table.assign(theta2_deg=np.mod(table.theta2_deg, 360)), tmp_path, "wrapped")
+    assert result.returncode == 0, result.stderr
+    ok = wrapped.status == "ok"
+    assert ok.sum() > 1000 and (plain.status[ok] == "ok").all()  # rows at theta2 < 0 read delta < -180 deg: extrapolated
+    # 1e-4 N: at %.9g a wrapped angle near 360 deg keeps 6 decimals where the plain one near 0 kept 11 (measured 2e-6 N)
+    np.testing.assert_allclose(wrapped.fx_N[ok], plain.fx_N[ok], rtol=0, atol=1e-4)
+    np.testing.assert_allclose(wrapped.fy_N[ok], plain.fy_N[ok], rtol=0, atol=1e-4)
+    error = np.hypot(wrapped.fx_N - table.true_fx_N, wrapped.fy_N - table.true_fy_N)[ok]
+    assert error.max() < 2.0  # newtons, not kilonewtons
+
+
+def test_an_unwrapped_stream_gives_the_files_numbers(cals, task_session, tmp_path):
+    """File and stream unwrap alike (the carry between blocks): the same bytes."""
+    d, _, _ = cals
+    _, table = task_session
+    wrapped = table.assign(theta2_deg=np.mod(table.theta2_deg, 360))
+    _estimate(d / "dynamic.json", wrapped, tmp_path, "file")
+    text = (tmp_path / "file.csv").read_text()
+    result = subprocess.run([str(SAIL), "estimate", "--calibration", str(d / "dynamic.json"), "-", "-o", "stream.csv"],
+                            cwd=tmp_path, input=text, capture_output=True, text=True)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "stream.csv").read_bytes() == (tmp_path / "file.out.csv").read_bytes()
+
+
+def test_a_rate_no_arm_reaches_is_never_ok(cals, tmp_path):
+    """theta1 spun at 60 rad/s for 0.3 s (no arm a hand holds turns so): those rows' motion is unknown, the rest ok;
+    measured rates beyond reach likewise."""
+    import pandas as pd
+
+    from sailforce.motion.differentiate import MAX_JOINT_RATE
+
+    d, static, _ = cals
+    t = np.arange(3000) * 1e-3
+    spin = (t > 1.2) & (t < 1.5)
+    rate = np.where(spin, 60.0, 0.0)
+    theta1 = np.radians(80.0) + np.cumsum(rate) * 1e-3
+    table = pd.DataFrame({"t_s": t, "theta1_deg": np.degrees(theta1), "theta2_deg": 10.0,
+                          "load1": static.offsets[0], "load2": static.offsets[1]})  # fmt: skip
+    _, out = _estimate(d / "dynamic.json", table, tmp_path, "spin")
+    assert 60.0 > MAX_JOINT_RATE and (out.status[spin] != "ok").all() and (out.status[spin] == "motion-unknown").mean() > 0.5
+    assert (out.status[(t > 0.2) & (t < 1.0)] == "ok").all()
+    measured = table.assign(omega1_dps=np.where(spin, np.degrees(60.0), 0.0), omega2_dps=0.0, alpha1_dps2=0.0, alpha2_dps2=0.0)
+    _, out = _estimate(d / "dynamic.json", measured, tmp_path, "measured")
+    assert (out.status[spin] != "ok").all() and (out.status[(t > 0.2) & (t < 1.0)] == "ok").all()
+
+
+def test_unwrapped_gives_one_pass_numbers_in_blocks():
+    from sailforce.motion.differentiate import unwrapped
+
+    rng = np.random.default_rng(3)
+    q = np.cumsum(rng.normal(0, 0.3, (500, 2)), axis=0)
+    q[100, 1] = np.nan
+    wrapped = np.mod(q + np.pi, 2 * np.pi) - np.pi
+    whole, _ = unwrapped(wrapped)
+    steps = np.diff(whole, axis=0)
+    assert np.nanmax(np.abs(steps)) < np.pi
+    parts, carry = [], None
+    for block in np.array_split(wrapped, 7):
+        part, carry = unwrapped(block, carry)
+        parts.append(part)
+    np.testing.assert_array_equal(np.concatenate(parts), whole)
+    same, _ = unwrapped(q[:50])
+    assert same is not None and np.shares_memory(same, q) or np.array_equal(same, q[:50])

@@ -44,6 +44,9 @@ from .materials import AL_7075_T6, Material, RectangularSection
 
 #: How the cell's bending compliance is given (module docstring).
 COMPLIANCE_MODELS = ("datasheet", "block", "matrix")
+
+#: What a cell's reading is: its far face's deflection [m] (the seed's surrogate) or its bridge's output [mV/V].
+READINGS = ("deflection", "bridge")
 #: Default 1-sigma reading noise [mV/V]: 1e-4 of the default 2 mV/V rated output, as the synthetic recordings
 #: (sailforce.synthetic.NoiseModel); an HX711 at gain 128 and 10 Hz is quieter (~50 nV on 5 V, 1e-5 mV/V).
 DEFAULT_NOISE_MV_V = 2e-4
@@ -75,12 +78,15 @@ class LoadCell:
     compliance_vm: float = 0.0  #: [1/N] far-face deflection per moment = rotation per shear (``matrix`` only)
     compliance_mm: float = 0.0  #: [1/(N m)] far-face rotation per moment (``matrix`` only)
     noise_mV_V: float = DEFAULT_NOISE_MV_V  #: 1-sigma reading noise [mV/V] (ADC and bridge), for resolution maps
+    reading: str = ""  #: what the cells' readings are, one of :data:`READINGS`; "" lets each command use its default
 
     def __post_init__(self) -> None:
         for name in ("capacity_kg", "rated_deflection", "length", "rated_output_mV_V"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise GeometryError(f"load cell {name} = {value!r} must be a positive number")
+        if self.reading not in ("", *READINGS):
+            raise GeometryError(f"load cell reading = {self.reading!r}: expected one of {', '.join(map(repr, READINGS))}")
         if not (0.0 < self.position < 1.0):
             raise GeometryError(f"load cell position = {self.position!r} must lie strictly between 0 and 1")
         if not (isinstance(self.noise_mV_V, (int, float)) and math.isfinite(self.noise_mV_V) and self.noise_mV_V >= 0):

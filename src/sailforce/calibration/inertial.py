@@ -21,16 +21,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..kernel import solve_2x2, torque_entries
-from ..motion.differentiate import Differentiator, MotionDataError, RatePlan, RateTracker, derivatives, sampling_period
+from ..motion.differentiate import Differentiator, MotionDataError, RatePlan, RateTracker, check_period, derivatives, sampling_period
 from ..motion.dynamics import PARAMETERS, ShearModel, base_parameters, shear_regressor
 
 #: Largest condition number of the (column-scaled) identification problem: beyond it some base parameter
 #: is barely excited, and its estimate is noise.  Measured: a session of 8 reaches in 8 directions gives ~30.
 MAX_CONDITION = 1e3
-
-#: The rate fit needs this many more samples in its window than its polynomial has coefficients minus one,
-#: or it follows the encoder quantization instead of the motion.
-MIN_WINDOW_MARGIN = 3
 
 #: Contiguous blocks of the recording left out in turn for the cross-validated residual.
 CV_FOLDS = 5
@@ -93,13 +89,7 @@ def fit_dynamic_term(cal, t, theta1, theta2, load1, load2, *, differentiator: Di
     """
     arm = cal.arm
     q = np.column_stack([theta1, theta2]).astype(float)
-    dt = sampling_period(np.asarray(t, float))
-    if differentiator.window(dt) < differentiator.order + MIN_WINDOW_MARGIN:
-        raise MotionDataError(
-            f"sampling at {1 / dt:.3g} Hz leaves {differentiator.window(dt)} samples in the {differentiator.window_s:g} s "
-            f"window that rates are fitted over; record at {(differentiator.order + MIN_WINDOW_MARGIN) / differentiator.window_s:.3g} Hz "
-            "or faster"
-        )
+    check_period(differentiator, sampling_period(np.asarray(t, float)))
     qd, qdd = derivatives(t, q, differentiator)
     loads = np.column_stack([load1, load2]).astype(float) - np.asarray(cal.offsets)
     known = np.all(np.isfinite(qd) & np.isfinite(qdd) & np.isfinite(loads) & np.isfinite(q), axis=1)

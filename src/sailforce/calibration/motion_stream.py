@@ -22,7 +22,7 @@ import numpy as np
 
 from ..io.files import TableError
 from ..io.tables import Chunk
-from ..motion.differentiate import RateTracker
+from ..motion.differentiate import RateTracker, implausible
 from ..motion.dynamics import ShearModel
 from .estimator import estimate_moving
 
@@ -137,4 +137,8 @@ class MotionStage:
             rate = np.radians(np.column_stack([values[c] for c in RATE_COLUMNS]))
         if self.columns.accelerations:
             accel = np.radians(np.column_stack([values[c] for c in ACCELERATION_COLUMNS]))
+        wild = implausible(rate, accel)
+        if wild.any():  # a measured rate no arm reaches: the row's motion is unknown, never ok
+            rate, accel = rate.copy(), accel.copy()
+            rate[wild], accel[wild] = np.nan, np.nan
         return MotionRows(self.cal, self.shear_model, rate, accel)

@@ -118,3 +118,50 @@ def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: 
     from ..calibration.filters import LowPass
 
     return LowPass(lowpass_hz, sample_rate_hz, 2 if order is None else order)
+
+
+def resolve_reading(robot: Robot, option: str | None, default: str, console, flag: str = "--transduction") -> str:
+    """The cells' reading: the option if given (saying so when it overrides the robot file's), else the file's, else ``default``."""
+    stated = robot.loadcell.reading
+    if option is None:
+        return stated or default
+    if stated and option != stated:
+        console.print(f"note: {flag} {option} overrides the robot file's reading = {stated!r}", highlight=False, soft_wrap=True)
+    return option
+
+
+def robot_with_joints(robot_path: Path | None, joints: str | None, default: str, console) -> Robot:
+    """``--robot`` with ``--joints``: the file's own joints unless ``--joints`` is given (then say that it overrides them).
+
+    Without a robot file, ``default`` (the command's own) applies.
+    """
+    if robot_path is None:
+        return Robot().with_joints(joints or default)
+    robot = load_robot_file(robot_path).robot
+    if joints is None:
+        return robot
+    if robot.joints.label != joints:
+        console.print(f"note: --joints {joints} overrides the robot file's joints ({robot.joints.label})", highlight=False, soft_wrap=True)
+    return robot.with_joints(joints)
+
+
+#: Link lengths of a calibration and a robot file agree within this [relative]: a file rounds them to 12 digits at most.
+SAME_ARM_RTOL = 1e-9
+
+
+def check_same_arm(cal_arm: Arm, robot_arm: Arm, robot_path: Path | None) -> None:
+    """Refuse a calibration made for another arm than the ``--robot`` file's (their forces would differ without a word)."""
+    names = ("l1", "l2", "l3", "l4")
+    ours, theirs = [getattr(cal_arm, n) for n in names], [getattr(robot_arm, n) for n in names]
+    if not all(math.isclose(a, b, rel_tol=SAME_ARM_RTOL) for a, b in zip(ours, theirs)):
+        show = lambda values: ", ".join(f"{n} = {v:g}" for n, v in zip(names, values))
+        where = robot_path if robot_path is not None else "the default robot"
+        raise click.UsageError(f"the calibration is for another arm ({show(ours)} m) than {where} ({show(theirs)} m); "
+                               "give the robot file it was made with, or recalibrate")  # fmt: skip
+
+
+def file_only(ctx, param, value):
+    """A click callback for outputs that must be files: ``-`` (standard output) would otherwise name a file ``-``."""
+    if value is not None and str(value) == "-":
+        raise click.BadParameter("'-' is not standard output here: this output is written to a file; name one")
+    return value

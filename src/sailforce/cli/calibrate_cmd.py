@@ -13,13 +13,14 @@ from rich.console import Console
 
 from ..calibration.file import Calibration
 from ..calibration.fit import MODEL_KINDS, equivalent_capacity, fit_calibration
+from ..calibration.physics import DEFAULT_TRANSDUCTION
 from ..calibration.tare import TARE_MAX_SHIFT, tare
 from ..errors import SailError
 from ..fem.response import TRANSDUCTIONS
 from ..io.files import check_output
 from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, TableError, read_all
 from . import cli
-from ._options import load_robot, robot_option
+from ._options import file_only, load_robot, resolve_reading, robot_option
 from ._progress import progress_bar
 
 #: Readings and forces beyond this magnitude are refused: a 24-bit ADC gives
@@ -68,7 +69,8 @@ def _parse_capacity(ctx, param, value):
 @cli.command("calibrate")
 @click.argument("data", metavar="DATA.csv", type=click.Path(dir_okay=False, path_type=Path))
 @robot_option
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Calibration JSON to write.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, callback=file_only,
+              help="Calibration JSON to write.")
 @click.option("--model", "kind", type=click.Choice((*MODEL_KINDS, "auto")), default="auto", show_default=True,
               help="seed: amplitude/phase polynomials per cell; matrix: C(Δ)·Jᵀ Chebyshev map; physics: the robot's "
               "frame model with fitted gains, offsets and joint stiffnesses; auto: the best cross-validated.")
@@ -77,7 +79,7 @@ def _parse_capacity(ctx, param, value):
               "Default: joints.P1.stiffness,joints.P2.stiffness,joints.P3.stiffness.")
 @click.option("--transduction", type=click.Choice(TRANSDUCTIONS), default=None,
               help="physics: what the cells read, the bridge (shear, with crosstalk) or the far face's deflection. "
-              "Default: bridge.")
+              "Default: the --robot file's reading, else bridge.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @click.option("--capacity", callback=_parse_capacity, default=None, metavar="RAW1,RAW2",
               help="Raw reading (offset removed) at each cell's capacity. Default: estimated from the robot's load-cell rating.")
@@ -112,6 +114,8 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
     console = Console()
     physics = kind in ("physics", "auto")
+    if physics:
+        transduction = resolve_reading(robot, transduction, DEFAULT_TRANSDUCTION, console)
     with progress_bar(console, "fitting the physics model", None, unit="starts", quiet=quiet or not physics) as advance:
         model, offsets, report = fit_calibration(
             robot.arm, theta1, theta2, values["fx_N"], values["fy_N"], values["load1"], values["load2"], kind=kind,
@@ -206,7 +210,8 @@ def _identify(console: Console, cal: Calibration, robot, free_motion: Path) -> C
 @cli.command("tare")
 @click.argument("calibration", metavar="CAL.json", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("noload", metavar="NOLOAD.csv", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="New calibration JSON.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, callback=file_only,
+              help="New calibration JSON.")
 @click.option("--force", is_flag=True, help=f"Accept offsets that move by more than {TARE_MAX_SHIFT:.0%} of a cell's capacity.")
 def tare_command(calibration, noload, output, force):
     """New offsets from a no-load recording: the mean of its load1 and load2.
@@ -217,7 +222,7 @@ def tare_command(calibration, noload, output, force):
     capacity.  Refuses offsets that move by more than 10% of a cell's
     capacity from the calibration's, unless --force.
     """
-    check_output(output, {"the no-load recording": noload})
+    check_output(output, {"the no-load recording": noload, "the calibration CAL.json": calibration})
     cal = Calibration.load(calibration)
     values = _clean_rows(noload, ("load1", "load2"), "A no-load recording")
     result = tare(cal, np.column_stack([values["load1"], values["load2"]]), noload)

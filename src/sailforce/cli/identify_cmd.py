@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -17,7 +18,7 @@ from ..io.robotfile import template
 from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS
 from ..study import TABLE4_COLUMNS, Protocol, table4
 from . import cli
-from ._options import load_robot, robot_option
+from ._options import load_robot, resolve_reading, robot_option
 from ._progress import progress_bar
 
 #: Files ``sail identify`` writes into its output directory.
@@ -97,7 +98,8 @@ def _readings_target(path: Path, transduction: str) -> ReadingsTarget:
     "--transduction",
     type=click.Choice(TRANSDUCTIONS),
     default=None,
-    help="What the cells read. Default: deflection for --table4 (the seed's surrogate), bridge for --data.",
+    help="What the cells read. Default: the --robot file's reading, else deflection for --table4 (the seed's "
+    "surrogate), bridge for --data. identified.toml records it.",
 )
 @click.option(
     "--amplitude-weight",
@@ -135,13 +137,14 @@ def identify_command(robot_path, table4_spec, data, free, bounds, transduction, 
         raise click.UsageError("give one target: --table4 seed|TABLE4.csv, or --data DATA.csv")
     robot = load_robot(robot_path)
     keys = tuple(k.strip() for k in free.split(",") if k.strip())
+    console = Console()
     if table4_spec is not None:
-        target: Table4Target | ReadingsTarget = _table4_target(table4_spec, transduction or "deflection", amplitude_weight)
+        reading = resolve_reading(robot, transduction, "deflection", console)
+        target: Table4Target | ReadingsTarget = _table4_target(table4_spec, reading, amplitude_weight)
     else:
-        target = _readings_target(data, transduction or "bridge")
+        target = _readings_target(data, resolve_reading(robot, transduction, "bridge", console))
     if robot_path is not None and output.joinpath("identified.toml").resolve() == Path(robot_path).resolve():
         raise click.UsageError(f"{robot_path} is the --robot file: choose another -o directory, so it is not replaced")
-    console = Console()
     springs = with_free_springs(robot, keys)
     if springs.joints != robot.joints:
         console.print(f"note: joints {robot.joints.label} -> {springs.joints.label}: a free stiffness needs a spring "
@@ -165,8 +168,8 @@ def _write(output: Path, fit: Identification, target, robot) -> None:
     with atomic_writer(output / "residuals.csv") as stream:
         stream.write(",".join(head) + "\n")
         np.savetxt(stream, rows, fmt="%.10g", delimiter=",")
-    with atomic_writer(output / "identified.toml") as stream:
-        stream.write(template(fit.robot))
+    with atomic_writer(output / "identified.toml") as stream:  # the reading it was fitted under, for every later command
+        stream.write(template(replace(fit.robot, loadcell=replace(fit.robot.loadcell, reading=target.transduction))))
     write_json(output / "identify.json", {
         "target": "table4" if isinstance(target, Table4Target) else "readings",
         "transduction": target.transduction,

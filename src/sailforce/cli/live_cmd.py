@@ -112,7 +112,8 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
                       "another machine; give it only to those who may change the offsets", highlight=False)  # fmt: skip
 
     with ExitStack() as stack:
-        blocks, label = _source(stack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, sample_rate_hz)
+        blocks, label = _source(stack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, sample_rate_hz,
+                                cal.arm)  # fmt: skip
         pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt)
         server = LiveServer(pipeline, record_dir=record_dir, record_format=record_format, calibration_path=cal_path, hosts=hosts,
                             **({"token": token} if token else {}))  # fmt: skip
@@ -138,14 +139,16 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
                 console.print(f"saved calibration {path}", highlight=False)
 
 
-def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, rate_hz):
+def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, rate_hz, cal_arm):
     """The chosen source's blocks, and a label for people."""
     from ..live import sources
 
     if simulate:
-        from ._options import load_robot
+        from ._options import check_same_arm, load_robot
 
-        return sources.simulated_arm(load_robot(robot_path), rig=rig, speed=speed), f"simulated arm (rig {rig})"
+        robot = load_robot(robot_path)
+        check_same_arm(cal_arm, robot.arm, robot_path)
+        return sources.simulated_arm(robot, rig=rig, speed=speed), f"simulated arm (rig {rig})"
     if serial_port is not None:
         return sources.stamped(stack.enter_context(sources.serial_lines(serial_port, baud))), f"serial port {serial_port}"
     if lsl_in is not None:

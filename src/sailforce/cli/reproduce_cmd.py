@@ -15,7 +15,7 @@ from ..fem.response import TRANSDUCTIONS
 from ..robot import JOINT_MODELS
 from ..study import ModelId, StudyResult, run_study
 from . import cli
-from ._options import load_robot, robot_option
+from ._options import load_robot, resolve_reading, robot_option, robot_with_joints
 from ._progress import print_notes
 
 DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
@@ -25,10 +25,12 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
 @click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for the figures, tables, results.json and report (created if needed).")
 @robot_option
-@click.option("--joints", type=click.Choice(JOINT_MODELS), default="bonded", show_default=True,
-              help="Passive-joint model; bonded is closest to the seed's SolidWorks set-up.")
-@click.option("--transduction", type=click.Choice(TRANSDUCTIONS), default="deflection", show_default=True,
-              help="Load-cell signal: far-face deflection [m] (the seed's surrogate) or bridge output [mV/V].")
+@click.option("--joints", type=click.Choice(JOINT_MODELS), default=None,
+              help="Passive-joint model. Default: the --robot file's joints, else bonded (closest to the seed's "
+              "SolidWorks set-up); given with --robot, it overrides the file's, and says so.")
+@click.option("--transduction", type=click.Choice(TRANSDUCTIONS), default=None,
+              help="Load-cell signal: far-face deflection [m] (the seed's surrogate) or bridge output [mV/V]. "
+              "Default: the --robot file's reading, else deflection.")
 @click.option("--criterion", type=click.Choice(CRITERIA), default=DEFAULT_CRITERION, show_default=True,
               help="Order selection for the Table 4 regressors: adjusted R² (the seed's stated rule) or plain R².")
 @click.option("--threshold", type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
@@ -60,8 +62,12 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
 
     console = Console(stderr=True)
     started = time.perf_counter()
+    base = robot_with_joints(robot_path, joints, "bonded", console)
+    transduction = resolve_reading(base, transduction, "deflection", console)
     output.mkdir(parents=True, exist_ok=True)
-    passes = [joints] + ([compare_joints] if compare_joints not in ("none", joints) else [])
+    label = base.joints.label
+    robots = {label: base} | ({compare_joints: base.with_joints(compare_joints)} if compare_joints not in ("none", label) else {})
+    passes = list(robots)
     results: list[StudyResult] = []
     study_seconds = 0.0
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn())
@@ -71,7 +77,7 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
         families = len(FAMILIES) if seed_model else 0
         task = progress.add_task("reproducing", total=3 * len(passes) + 1 + families + (1 if solid else 0))
         for k, model in enumerate(passes):
-            robot = load_robot(robot_path, model)
+            robot = robots[model]
             progress.update(task, description=f"study, {model} joints")
             t0 = time.perf_counter()
             result = run_study(robot, transduction, criterion=criterion, threshold=threshold)
@@ -98,13 +104,13 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
                     progress.advance(task)
                 progress.update(task, description=f"seed model: {name}")
 
-            seed_fits = seed_model_study(load_robot(robot_path), results[0].protocol, progress=fitting)
+            seed_fits = seed_model_study(load_robot(robot_path), results[0].protocol, progress=fitting)  # its own joints
             progress.advance(task)
             write_seed_model(output, seed_fits, dpi)
         solid_markdown = None
         if solid:
-            progress.update(task, description=f"solid model, {joints} joints ({solid_mesh_mm:g} mm)")
-            solid_markdown = _solid_pass(output, load_robot(robot_path, joints), results[0], solid_mesh_mm, dpi)
+            progress.update(task, description=f"solid model, {label} joints ({solid_mesh_mm:g} mm)")
+            solid_markdown = _solid_pass(output, base, results[0], solid_mesh_mm, dpi)
             progress.advance(task)
         progress.update(task, description="report")
         from ..report.document import write_report

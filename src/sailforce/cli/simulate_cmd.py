@@ -12,10 +12,10 @@ from rich.console import Console
 from .. import __version__
 from ..fem.model import build_model
 from ..fem.response import TRANSDUCTION_UNITS, TRANSDUCTIONS, simulate_model
-from ..io.files import check_output, numeric_table_writer, table_format, write_json
+from ..io.files import check_output, check_sidecar, numeric_table_writer, table_format, write_json
 from ..sweep import COLUMNS, check_not_singular, pose_grid, sweep_rows
 from . import cli
-from ._options import FINITE, joints_option, load_robot, robot_option, spec
+from ._options import FINITE, joints_option, load_robot, resolve_reading, robot_option, spec
 from ._progress import progress_bar
 
 #: Rows computed and written per step: about 30 MB of working arrays whatever the grid.
@@ -28,8 +28,9 @@ MAX_ROWS = 10_000_000
 @cli.command("simulate")
 @robot_option
 @joints_option
-@click.option("--transduction", type=click.Choice(TRANSDUCTIONS), default="deflection", show_default=True,
-              help="Load-cell signal: far-face deflection [m] or bridge output [mV/V].")
+@click.option("--transduction", type=click.Choice(TRANSDUCTIONS), default=None,
+              help="Load-cell signal: far-face deflection [m] or bridge output [mV/V]. Default: the --robot file's "
+              "reading, else deflection.")
 @click.option("--theta1-deg", required=True, callback=spec("theta1"), help="SPEC: A or start:stop:step (stop inclusive).")
 @click.option("--theta2-deg", required=True, callback=spec("theta2"), help="SPEC for theta2.")
 @click.option("--phi-deg", default="0:345:15", show_default=True, callback=spec("phi"), help="SPEC for the force direction.")
@@ -50,8 +51,8 @@ def simulate_command(robot_path, joints, transduction, theta1_deg, theta2_deg, p
     angle follows by superposition.  Warns when a load cell's shear exceeds
     its capacity.
     """
-    sidecar = output.with_name(output.name + ".json")
     table_format(output)
+    sidecar = check_sidecar(output)
     check_output(output, {"the --robot file": robot_path})
     check_output(sidecar, {"the --robot file": robot_path}, flag=f"the sidecar of -o {output},")
     n_rows = theta1_deg.size * theta2_deg.size * phi_deg.size
@@ -60,12 +61,13 @@ def simulate_command(robot_path, joints, transduction, theta1_deg, theta2_deg, p
                                f"{phi_deg.size:,} force angles), more than --max-rows {max_rows:,}; use coarser steps "
                                "or raise --max-rows")  # fmt: skip
     robot = load_robot(robot_path, joints)
+    console = Console(stderr=True)
+    transduction = resolve_reading(robot, transduction, "deflection", console)
     theta1, theta2 = pose_grid(np.radians(theta1_deg), np.radians(theta2_deg))
     check_not_singular(theta1, theta2)
     phi = np.radians(phi_deg)
     model = build_model(robot, shear_deformation=shear)
 
-    console = Console(stderr=True)
     capacity = robot.loadcell.capacity_N
     overloads, worst_safety, peak_shear = 0, math.inf, 0.0
     poses_per_chunk = max(1, ROWS_PER_CHUNK // phi.size)

@@ -9,7 +9,7 @@ import numpy as np
 from rich.console import Console
 
 from .. import __version__
-from ..io.files import check_output, numeric_table_writer, table_format, write_json
+from ..io.files import check_output, check_sidecar, numeric_table_writer, table_format, write_json
 from ..motion.dynamics import base_parameters, inertial_parameters, parameter_vector
 from ..motion.reaching import reaching, record
 from ..synthetic import NoiseModel, calibration_session, session_offsets
@@ -68,8 +68,8 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
     set the handle mass and the tilt.  The static session is the
     pulley-and-weights calibration (fx_N, fy_N the applied force).
     """
-    sidecar = output.with_name(output.name + ".json")
     table_format(output)
+    sidecar = check_sidecar(output)
     check_output(output, {"the --robot file": robot_path})
     check_output(sidecar, {"the --robot file": robot_path}, flag=f"the sidecar of -o {output},")
     for name, value in (("--reach-m", reach), ("--peak-speed-mps", peak_speed), ("--sample-rate-Hz", rate)):

@@ -139,6 +139,10 @@ def _print_comparison(console: Console, comparison: dict, response, depth, secon
                   highlight=False)  # fmt: skip
 
 
+#: What solid-sweep writes into its output folder; none of them may be one of its inputs.
+SWEEP_OUTPUTS = ("poses.csv", "results.json", "table4.csv", "table4_comparison.csv", "table4.png")
+
+
 @cli.command("solid-sweep")
 @click.option("--protocol", "protocol_spec", default="seed", show_default=True, metavar="seed|FILE",
               help="seed: the seed's two sweeps (16 poses, Table 4); or a CSV file with columns theta1_deg, theta2_deg.")
@@ -171,7 +175,9 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, cache_dir, n
     from ..study import TABLE4_COLUMNS, table4, table4_from_rows
     from . import DataError
 
-    check_output(output / "poses.csv", {"the --robot file": robot_path})
+    inputs = {"the --robot file": robot_path, "the --protocol file": None if protocol_spec == "seed" else protocol_spec}
+    for name in SWEEP_OUTPUTS:
+        check_output(output / name, inputs)
     protocol = Protocol()
     if protocol_spec == "seed":
         poses, sweeps = seed_poses(protocol)

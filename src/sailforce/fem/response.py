@@ -25,12 +25,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validate import as_float_arrays
+from ..loadcell import READINGS
 from ..robot import Robot
 from .elements import rotation
 from .frame import solve
 from .model import LOADCELL_MEMBERS, MEMBER_LINK, MEMBERS, ROOT_MEMBERS, ArmModel, build_model
 
-TRANSDUCTIONS = ("deflection", "bridge")
+TRANSDUCTIONS = READINGS  #: the cells' readings (:data:`sailforce.loadcell.READINGS`)
 TRANSDUCTION_UNITS = {"deflection": "m", "bridge": "mV/V"}
 
 

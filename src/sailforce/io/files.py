@@ -219,3 +219,36 @@ def write_figure(path: str | Path, figure, *, dpi: float = 150) -> None:
     suffix = Path(path).suffix.lstrip(".").lower() or "png"
     with atomic_writer(path, "wb") as stream:
         figure.savefig(stream, format=suffix, dpi=dpi)
+
+
+def sidecar_path(output: str | Path) -> Path:
+    """``OUT.csv.json`` for ``OUT.csv``: the output's name plus ``.json``."""
+    output = Path(output)
+    return output.with_name(output.name + ".json")
+
+
+def check_sidecar(output: str | Path) -> Path:
+    """The sidecar of ``output``, refused unless it is new or a sidecar sailforce wrote before (never through a link).
+
+    A sidecar replaces only its own earlier self: a regular file holding a
+    JSON object whose ``software`` is sailforce's.  Anything else there (a
+    user's file, a symlink to a calibration) is left alone and the command
+    refused before it writes anything.
+    """
+    sidecar = sidecar_path(output)
+    if os.path.islink(sidecar):
+        raise OutputPathError(f"{sidecar} (the sidecar of -o {output}) is a symlink; sailforce never writes a sidecar "
+                              "through a link. Remove it or choose another -o")  # fmt: skip
+    if not os.path.lexists(sidecar):
+        return sidecar
+    check_regular_output(sidecar, f"the sidecar of -o {output},")
+    try:
+        with open(sidecar, encoding="utf-8") as stream:
+            earlier = json.loads(stream.read(1 << 20))
+        ours = isinstance(earlier, dict) and str(earlier.get("software", "")).startswith("sailforce")
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        ours = False
+    if not ours:
+        raise OutputPathError(f"{sidecar} exists and is not a sidecar sailforce wrote; -o {output} would replace it. "
+                              "Move it or choose another -o")  # fmt: skip
+    return sidecar

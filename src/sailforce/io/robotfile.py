@@ -24,9 +24,9 @@ SECTION_KEYS = ("depth", "thickness")
 MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
 LOADCELL_KEYS = ("capacity_kg", "rated_deflection", "length", "position", "depth", "thickness",
                  "rated_output_mV_V", "crosstalk_axial", "crosstalk_moment",
-                 "compliance", "compliance_vv", "compliance_vm", "compliance_mm", "noise_mV_V")  # fmt: skip
+                 "compliance", "compliance_vv", "compliance_vm", "compliance_mm", "noise_mV_V", "reading")  # fmt: skip
 #: Keys whose value is a quoted name rather than a number.
-NAME_KEYS = ("model", "compliance")
+NAME_KEYS = ("model", "compliance", "reading")
 #: Each optional section and the keys it may hold; ``links`` is required.
 SECTIONS = {
     "links": LINK_KEYS,
@@ -100,6 +100,7 @@ compliance_vv = {cvv:g}         # m/N, far-face deflection per shear, near face 
 compliance_vm = {cvm:g}         # 1/N, far-face deflection per moment = rotation per shear
 compliance_mm = {cmm:g}         # 1/(N m), far-face rotation per moment
 noise_mV_V = {noise:g}        # 1-sigma reading noise (ADC and bridge), for sail design's resolution maps
+{reading_line}
 
 [joints]            # the passive joints P1, P2, P3
 model = "{joints}"       # "pin" (ideal revolute), "bonded" (rigid, SolidWorks' default contact) or "spring"
@@ -148,11 +149,18 @@ def template(robot: Robot | None = None) -> str:
         position=cell.position, cell_depth=cell.block.depth, cell_thickness=cell.block.thickness,
         rated_output=cell.rated_output_mV_V, xa=cell.crosstalk_axial, xm=cell.crosstalk_moment,
         compliance=cell.compliance, cvv=cell.compliance_vv, cvm=cell.compliance_vm, cmm=cell.compliance_mm, noise=cell.noise_mV_V,
+        reading_line=_reading_line(cell.reading),
         section_overrides=_link_overrides(r, "sections"), material_overrides=_link_overrides(r, "materials"),
         joints=r.joints.model, joint_k=r.joints.stiffness, joint_overrides=_joint_overrides(r.joints),
         motors=r.motors.model, motor_k=r.motors.stiffness,
         handle_mass=r.handle.mass, handle_position=r.handle.position, tilt=r.plane.tilt_deg, axis=r.plane.axis_deg,
     )  # fmt: skip
+
+
+def _reading_line(reading: str) -> str:
+    """The ``reading`` key: set when the file states it (sail identify writes it), a comment otherwise."""
+    what = '# "deflection" (m, far face) or "bridge" (mV/V): what the cells read; every command honours it'
+    return f'reading = "{reading}"  {what}' if reading else f'# reading = "bridge"  {what} (unset: each its own default)'
 
 
 def _link_overrides(robot: Robot, section: str) -> str:

@@ -58,6 +58,17 @@ THREADS = min(2, os.cpu_count() or 1)
 #: Valid time steps whose median sets the sampling period of a stream whose rate is not given.
 PROBE_STEPS = 64
 
+#: Fastest joint rate an arm that a hand holds can reach [rad/s]: five turns a second (a fast reach is ~5 rad/s).
+#: A fitted rate beyond it is an encoder glitch or a unit error, never a motion: the row's motion is unknown.
+MAX_JOINT_RATE = 30.0
+
+#: Largest plausible joint acceleration [rad/s^2]: 900 m/s^2 at 0.3 m, an impact; reaches reach ~20 rad/s^2.
+MAX_JOINT_ACCEL = 3000.0
+
+#: The rate fit needs this many more samples in its window than its polynomial has coefficients minus one,
+#: or it follows the encoder quantization instead of the motion.
+MIN_WINDOW_MARGIN = 3
+
 
 class MotionDataError(SailError):
     """Timestamps or angles that no rate can be derived from."""
@@ -84,6 +95,55 @@ class Differentiator:
 
     def delay_samples(self, dt: float) -> int:
         return self.window(dt) // 2
+
+
+def unwrapped(q: np.ndarray, carry: tuple[np.ndarray, np.ndarray] | None = None):
+    """``q`` ``(n, k)`` [rad] with every step of more than half a turn between samples undone as a wrap; and the carry.
+
+    An angle written modulo 360 deg jumps by a turn where it crosses 0; no
+    arm moves half a turn between two samples, so such a step is a wrap, and
+    a rate fitted across it would be thousands of degrees a second.  Each
+    jump adds the nearest whole turns to every later sample; steps next to a
+    missing (NaN) sample are left as they are (the rate fit never spans one).
+    Rates do not depend on the whole turns added.  ``carry``, from the
+    previous block (its last raw angles and their correction), makes blocks
+    fed one after another give the numbers of one pass.  Without a wrap
+    ``q`` itself comes back, unchanged.
+    """
+    q = np.asarray(q, float)
+    previous, offset = carry if carry is not None else (np.full(q.shape[1], np.nan), np.zeros(q.shape[1]))
+    steps = np.diff(np.concatenate([previous[None], q]), axis=0)
+    with np.errstate(invalid="ignore"):
+        turns = np.where(np.abs(steps) > math.pi, -np.round(steps / (2 * math.pi)), 0.0)
+    if not q.shape[0]:
+        return q, (previous, offset)
+    if not turns.any():
+        return (q if not offset.any() else q + offset), (q[-1], offset)
+    correction = offset + 2 * math.pi * np.cumsum(turns, axis=0)
+    return q + correction, (q[-1], correction[-1])
+
+
+def implausible(rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
+    """Rows ``(n,)`` whose rate or acceleration no arm reaches (:data:`MAX_JOINT_RATE`, :data:`MAX_JOINT_ACCEL`)."""
+    with np.errstate(invalid="ignore"):
+        return (np.abs(rate) > MAX_JOINT_RATE).any(axis=-1) | (np.abs(accel) > MAX_JOINT_ACCEL).any(axis=-1)
+
+
+def check_period(differentiator: Differentiator, dt: float, what: str = "t_s") -> None:
+    """Refuse a sampling period that leaves the rate window too few samples to fit, naming the likely unit error.
+
+    A ``t_s`` column in milliseconds has steps of about 1 at 1 kHz: the
+    0.1 s window then spans a tenth of a sample, and every rate would come out
+    a thousand times too small, the dynamic term silently near zero.
+    """
+    if differentiator.window(dt) >= differentiator.order + MIN_WINDOW_MARGIN:
+        return
+    n = int(round(differentiator.window_s / dt))
+    hint = (f"; is {what} in milliseconds? It must be in seconds" if 0.5 <= dt <= 100 else
+            f"; record at {(differentiator.order + MIN_WINDOW_MARGIN) / differentiator.window_s:.3g} Hz or faster")
+    raise MotionDataError(f"{what} steps by {dt:.4g} (median), which leaves {max(n, 0)} samples in the "
+                          f"{differentiator.window_s:g} s window that rates are fitted over (at least "
+                          f"{differentiator.order + MIN_WINDOW_MARGIN} are needed){hint}")  # fmt: skip
 
 
 def sampling_period(t: np.ndarray) -> float:
@@ -142,7 +202,7 @@ class RatePlan:
     def of(cls, t, q, differentiator: Differentiator = Differentiator(), dt: float | None = None) -> RatePlan:
         """The plan for angles ``q`` ``(n, k)`` at times ``t``; the period as :class:`RateTracker` chooses it."""
         t = np.asarray(t, float).reshape(-1)
-        q = np.asarray(q, float).reshape(t.size, -1)
+        q = unwrapped(np.asarray(q, float).reshape(t.size, -1))[0]
         if dt is None:
             steps = _valid_steps(t, q)
             dt = float(np.median(steps[:PROBE_STEPS])) if steps.size else None
@@ -150,6 +210,7 @@ class RatePlan:
             raise MotionDataError(f"sampling period {dt!r} s must be a positive time")
         if dt is None:
             return cls(t, q, None, 1, differentiator.order, np.zeros(max(t.size - 1, 0), dtype=bool))
+        check_period(differentiator, dt)
         valid = _valid_rows(t, q)
         with np.errstate(invalid="ignore"):
             steps = np.diff(t)
@@ -192,12 +253,14 @@ class RateTracker:
         self._t = np.empty(0)
         self._q: np.ndarray | None = None
         self._context = 0  # leading buffered samples already returned, kept as the next windows' start
+        self._carry: tuple[np.ndarray, np.ndarray] | None = None  # the last block's last angles and their whole turns
         if dt is not None:
             self._set_period(dt)
 
     def _set_period(self, dt: float) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise MotionDataError(f"sampling period {dt!r} s must be a positive time")
+        check_period(self.differentiator, dt)
         self.dt = float(dt)
         self.width = self.differentiator.window(self.dt)
 
@@ -209,7 +272,7 @@ class RateTracker:
 
     def feed(self, t, q) -> tuple[np.ndarray, np.ndarray]:
         t = np.asarray(t, float).reshape(-1)
-        q = np.asarray(q, float).reshape(t.size, -1)
+        q, self._carry = unwrapped(np.asarray(q, float).reshape(t.size, -1), self._carry)
         if self._t.size:
             self._t, self._q = np.concatenate([self._t, t]), np.concatenate([self._q, q])
         else:  # nothing held: no copy
@@ -301,6 +364,9 @@ def _window_fits(t, q, linked, dt, width, order, start, stop, threads=THREADS) -
         rows = np.flatnonzero(known & ~uniform)
         if rows.size:
             inner_rate[rows], inner_accel[rows] = _timestamp_fit(t, q, lo + rows, width, order)
+        wild = implausible(inner_rate, inner_accel)
+        if wild.any():  # no arm moves so: a glitch, not a motion
+            inner_rate[wild], inner_accel[wild] = np.nan, np.nan
     if lo == start and hi == stop:
         return inner_rate, inner_accel
     rate, accel = np.full((n, k), np.nan), np.full((n, k), np.nan)
