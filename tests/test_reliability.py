@@ -571,3 +571,92 @@ def test_unwrapped_gives_one_pass_numbers_in_blocks():
     np.testing.assert_array_equal(np.concatenate(parts), whole)
     same, _ = unwrapped(q[:50])
     assert same is not None and np.shares_memory(same, q) or np.array_equal(same, q[:50])
+
+
+# -- A full disk kills the live stream ------------------------------------------------------------------------------
+class _FillsUp:
+    """A file that takes ``budget`` bytes and then fails as a full disk does: part of the block written, then ENOSPC."""
+
+    def __init__(self, real, budget):
+        self.real, self.budget = real, budget
+
+    def write(self, data):
+        import errno
+
+        if len(data) > self.budget:
+            self.real.write(data[: self.budget])  # a row cut mid-line, as a full disk leaves it
+            self.real.flush()
+            self.budget = 0
+            raise OSError(errno.ENOSPC, "No space left on device")
+        self.budget -= len(data)
+        return self.real.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+
+def test_a_full_disk_stops_the_recording_not_the_stream(cals, tmp_path):
+    """With the record folder full, pressing record ended the estimate itself, and the last row was cut mid-line."""
+    from sailforce.live.pipeline import LivePipeline
+    from sailforce.live.recorder import Recorder
+    from sailforce.live.sources import simulated_arm
+    from sailforce.robot import Robot
+
+    _, static, _ = cals
+    pipeline = LivePipeline(static, simulated_arm(Robot(), rig=1), source="simulated arm")
+    seen = []
+    pipeline.listen(lambda rows: seen.append(len(rows.status)))
+    pipeline.start()
+    try:
+        import time
+
+        deadline = time.monotonic() + 30
+        while pipeline.output.header is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        recorder = Recorder(tmp_path, pipeline.output.header)
+        recorder._file = _FillsUp(recorder._file, 20_000)
+        with pipeline.output.lock:
+            pipeline.output.recorder = recorder
+        while pipeline.output.failed is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        before = pipeline.rows
+        time.sleep(0.5)
+        assert pipeline.rows > before + 100 and pipeline.error is None and not pipeline.ended.is_set()  # the stream goes on
+    finally:
+        pipeline.stop()
+    assert recorder.error is not None and "No space left" in recorder.error and pipeline.output.recorder is None
+    data = recorder.path.read_bytes()
+    assert data.endswith(b"\n") and data.count(b"\n") == recorder.rows + 1  # the header and whole rows, nothing cut
+    assert all(line.count(b",") == data.splitlines()[0].count(b",") for line in data.splitlines())
+
+
+def test_the_page_hears_of_a_failed_recording_and_can_record_again(cals, tmp_path):
+    import asyncio
+    import time
+
+    from tests.test_live_security import _serve
+
+    _, static, _ = cals
+
+    async def check(client, server):
+        good = {"X-Sail-Token": server.token}
+        deadline = time.monotonic() + 30
+        while server.pipeline.output.header is None and time.monotonic() < deadline:
+            await asyncio.sleep(0.01)
+        started = await (await client.post("/api/record", json={"on": True}, headers=good)).json()
+        assert started["ok"]
+        server.recorder._file = _FillsUp(server.recorder._file, 5_000)
+        ws = await client.ws_connect("/ws")
+        while time.monotonic() < deadline:
+            message = await ws.receive_json(timeout=30)
+            if message["type"] == "update" and message.get("recording_failed"):
+                break
+        failed = message["recording_failed"]
+        assert "No space left" in failed["error"] and failed["file"] == started["recording"]["file"]
+        assert message["recording"] is None and server.pipeline.rows > 0
+        again = await (await client.post("/api/record", json={"on": True}, headers=good)).json()
+        assert again["ok"] and again["recording"]["file"] != failed["file"]
+        await client.post("/api/record", json={"on": False}, headers=good)
+        await ws.close()
+
+    _serve(static, tmp_path, check)

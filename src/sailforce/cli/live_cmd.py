@@ -135,6 +135,15 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
             stopped = server.stop_recording()
             if stopped:
                 console.print(f"kept the recording {record_dir / stopped}", highlight=False)
+            failed = pipeline.output.failed
+            if failed is not None:
+                try:
+                    kept = failed.stop()  # a Parquet recording is converted now, if the disk allows
+                except OSError as exc:
+                    kept = failed.path
+                    console.print(f"could not convert it ({exc.strerror or exc}): the CSV stays", highlight=False)
+                console.print(f"[bold yellow]warning:[/bold yellow] a recording stopped by itself: {failed.error} "
+                              f"(kept {kept})", highlight=False)  # fmt: skip
             for path in server.saved:
                 console.print(f"saved calibration {path}", highlight=False)
 

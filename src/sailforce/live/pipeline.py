@@ -118,6 +118,7 @@ class _Output:
         self.expect_header = True
         self.lock = threading.Lock()
         self.recorder: Recorder | None = None
+        self.failed: Recorder | None = None  #: the last recording that stopped itself, for the page to report
 
     def write(self, data: bytes) -> int:
         if self.expect_header:
@@ -127,6 +128,8 @@ class _Output:
         with self.lock:
             if self.recorder is not None:
                 self.recorder.write(data)
+                if self.recorder.error is not None:  # it stopped itself (disk full): the stream goes on without it
+                    self.failed, self.recorder = self.recorder, None
         return len(data)
 
     def flush(self) -> None:

@@ -9,6 +9,11 @@ the last block.  Parquet recordings are written as CSV while they run and
 converted when they stop (a Parquet file without its footer, after a crash,
 would be unreadable); the CSV is removed only once the Parquet file is
 complete.
+
+A write that fails (the disk full, the folder gone) stops the recording, not
+the stream: the file is cut back to its last complete row, closed, and the
+error kept in :attr:`Recorder.error` for the page; the estimate, the page and
+any Lab Streaming Layer outlet go on.
 """
 
 from __future__ import annotations
@@ -54,24 +59,46 @@ class Recorder:
         self._file = os.fdopen(handle, "wb")
         self._lock = threading.Lock()
         self.rows = 0
-        self._file.write(header)
-        self._file.flush()
+        self.error: str | None = None  #: why the recording stopped by itself, if it did
+        self._good = 0  # bytes known to be whole rows on disk
+        self.write(header, rows=False)
 
-    def write(self, data: bytes) -> None:
+    def write(self, data: bytes, *, rows: bool = True) -> None:
+        """Append whole rows; a failing write cuts the file back to its last whole row and stops the recording."""
         with self._lock:
             if self._file.closed:
                 return
-            self._file.write(data)
-            self._file.flush()
-            self.rows += data.count(b"\n")
+            try:
+                self._file.write(data)
+                self._file.flush()
+            except OSError as exc:
+                self._fail(exc)
+                return
+            self._good += len(data)
+            if rows:
+                self.rows += data.count(b"\n")
+
+    def _fail(self, exc: OSError) -> None:
+        self.error = f"{exc.strerror or exc} while writing {self.path.name}; it keeps the {self.rows:,} rows before"
+        try:
+            os.ftruncate(self._file.fileno(), self._good)  # no half row; truncating needs no free space
+        except OSError:
+            pass
+        try:
+            self._file.close()
+        except OSError:  # the buffer's rest cannot be written either: it is the half row already cut
+            pass
 
     def stop(self) -> Path:
         """Close the recording (synced to disk); for Parquet, convert it. Returns the file that holds it."""
         with self._lock:
             if not self._file.closed:
-                self._file.flush()
-                os.fsync(self._file.fileno())
-                self._file.close()
+                try:
+                    self._file.flush()
+                    os.fsync(self._file.fileno())
+                    self._file.close()
+                except OSError as exc:
+                    self._fail(exc)
         if self.format == "csv":
             return self.path
         target, handle = fresh_file(self.path.parent, self.path.stem, ".parquet")
@@ -89,4 +116,5 @@ class Recorder:
 
     def info(self) -> dict:
         """For the page: the file's name (not its folder), rows and seconds so far."""
-        return {"file": self.path.name, "rows": self.rows, "seconds": time.time() - self.started, "format": self.format}
+        return {"file": self.path.name, "rows": self.rows, "seconds": time.time() - self.started, "format": self.format,
+                "error": self.error}  # fmt: skip

@@ -393,9 +393,13 @@ class LiveServer:
         cal = self.pipeline.calibration
         sample, points, last, counts, rate = self.state.snapshot(cal, since)
         error = self.pipeline.error
+        failed = self.pipeline.output.failed
+        if failed is not None and failed is self.recorder:  # it stopped itself: the record button is free again
+            self.recorder = None
         message = {"type": "update", "sample": sample, "points": points, "counts": counts, "rate_hz": rate,
                    "rows": self.pipeline.rows, "offsets": list(cal.offsets),
                    "recording": self.recorder.info() if self.recorder is not None else None,
+                   "recording_failed": failed.info() if failed is not None else None,
                    "ended": self.pipeline.ended.is_set(), "error": None if error is None else str(error),
                    "sent": time.time()}  # fmt: skip
         return message, last

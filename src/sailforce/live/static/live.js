@@ -13,6 +13,7 @@ let latest = null;         // the newest row
 let points = [];           // [stamp s, fx, fy, |F|], the last history_s seconds
 let dirty = false;
 let recording = null;
+let reportedFailure = null;
 let socket = null;
 // Latency of each shown row: the page's clock when it drew the row, less the row's reading time [ms].
 window.sailLatency = [];
@@ -79,6 +80,11 @@ function onUpdate(message) {
   setText("rate", `${Math.round(message.rate_hz)} rows/s` + (message.ended ? " · stream ended" : ""));
   showOffsets(message.offsets);
   recording = message.recording;
+  const failed = message.recording_failed;
+  if (failed && failed.file !== reportedFailure) {
+    reportedFailure = failed.file;
+    showMessage(`the recording stopped: ${failed.error}`, true);
+  }
   $("record").textContent = recording ? "stop recording" : "record";
   $("record").classList.toggle("active", !!recording);
   setText("recording", recording ? `recording ${recording.file}: ${recording.rows.toLocaleString()} rows, ${recording.seconds.toFixed(0)} s` : "");
