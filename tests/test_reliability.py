@@ -660,3 +660,86 @@ def test_the_page_hears_of_a_failed_recording_and_can_record_again(cals, tmp_pat
         await ws.close()
 
     _serve(static, tmp_path, check)
+
+
+# -- An interrupted `sail design` leaves a new design.json beside an old report --------------------------------------
+def test_design_writes_its_outputs_as_one_set(tmp_path, monkeypatch):
+    """An interrupted sweep left a new design.json and sweep.csv beside the old report.md of another sweep."""
+    from click.testing import CliRunner
+
+    from sailforce.cli import cli
+    from sailforce.report import design_report
+
+    out = tmp_path / "design"
+    swept = CliRunner().invoke(cli, ["design", "-o", str(out), "--grid", "8", "--sweep", "loadcells.position=0.3,0.6", "-q"])
+    assert swept.exit_code == 0, swept.output
+    first = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert {"sweep.csv", "report.md", "design.json"} <= set(first)
+
+    def interrupted(directory, *args, **kwargs):
+        (directory / "design.json").write_text("{}")  # part of the new set written, then Ctrl-C
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(design_report, "write_design", interrupted)
+    stopped = CliRunner().invoke(cli, ["design", "-o", str(out), "--grid", "6", "-q"])
+    assert stopped.exit_code != 0
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == first  # the previous set, whole, and no staging folder
+    monkeypatch.undo()
+    plain = CliRunner().invoke(cli, ["design", "-o", str(out), "--grid", "6", "-q"])
+    assert plain.exit_code == 0, plain.output
+    names = {p.name for p in out.iterdir()}
+    assert "sweep.csv" not in names and "pareto.png" not in names and {"report.md", "design.json"} <= names
+    assert "Sweep" not in (out / "report.md").read_text()
+
+
+def test_a_garbage_line_in_a_parquet_recording_keeps_the_csv_and_says_so(tmp_path):
+    """One line with a stray field made the Parquet conversion raise ArrowInvalid: the page never got an answer."""
+    from sailforce.errors import SailError
+    from sailforce.live.recorder import Recorder
+
+    recorder = Recorder(tmp_path, b"t_s,theta1_deg,theta2_deg,load1,load2,status\n", "parquet")
+    recorder.write(b"0.001,80,10,1,2,ok\n0.002,80,10,1,2,extra,invalid\n0.003,80,10,1,2,ok\n")
+    with pytest.raises(SailError, match="could not be converted to Parquet.*the CSV is kept"):
+        recorder.stop()
+    assert recorder.path.suffix == ".csv" and recorder.path.read_bytes().count(b"\n") == 4
+    assert not list(tmp_path.glob("*.parquet"))
+
+
+# -- Joining a serial stream that is already running -----------------------------------------------------------------
+def _serial_session(tmp_path, before: bytes, after: bytes, *extra):
+    """`sail estimate --serial PTY` reading ``before`` then ``after`` from a device on a pseudo-terminal; the hang-up ends it."""
+    import time
+    import tty
+
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    process = subprocess.Popen([str(SAIL), "estimate", "--calibration", str(CAL_PATH), "--serial", os.ttyname(slave),
+                                "-o", "out.csv", *extra], cwd=tmp_path, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    time.sleep(1.5)  # the port is open (and flushed) before the device's lines come: it joins mid-stream
+    os.write(master, before)
+    time.sleep(0.3)
+    os.write(master, after)
+    time.sleep(1.0)
+    os.close(slave)
+    os.close(master)  # the device hangs up
+    _, stderr = process.communicate(timeout=30)
+    return process.returncode, stderr, (tmp_path / "out.csv").read_text().splitlines() if (tmp_path / "out.csv").exists() else []
+
+
+def test_joining_a_running_serial_stream_waits_for_the_next_header(tmp_path):
+    """A device that streams without resetting never repeats its header: 'the header line cannot be read as CSV'."""
+    cal = Calibration.load(CAL_PATH)
+    row = f"80,10,{cal.offsets[0]:.0f},{cal.offsets[1]:.0f}\n".encode()
+    header = b"theta1_deg,theta2_deg,load1,load2\n"
+    code, stderr, lines = _serial_session(tmp_path, b"0,12,3\n" + row * 5, header + row * 7)
+    assert code == 0, stderr
+    assert "already streaming" in stderr and "skipped 6 lines" in stderr
+    assert lines[0].startswith("theta1_deg,theta2_deg,load1,load2,") and len(lines) == 8
+
+
+def test_a_serial_device_without_a_header_is_read_with_columns(tmp_path):
+    cal = Calibration.load(CAL_PATH)
+    row = f"80,10,{cal.offsets[0]:.0f},{cal.offsets[1]:.0f}\n".encode()
+    code, stderr, lines = _serial_session(tmp_path, row * 4, row * 3, "--columns", "theta1_deg,theta2_deg,load1,load2")
+    assert code == 0, stderr
+    assert len(lines) == 8 and all(line.endswith(",ok") for line in lines[1:])

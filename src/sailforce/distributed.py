@@ -75,7 +75,7 @@ def run_tasks(fn: Callable[[Any], Any], items: Sequence[Any], *, workers: int | 
     if scheduler is not None:
         try:
             client = distributed.Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:  # ValueError: an address dask cannot read (file://...)
             raise ClusterError(
                 f"cannot reach the Dask scheduler at {scheduler} ({exc}); start one with `dask scheduler` and "
                 "workers with `dask worker ADDRESS`"

@@ -80,8 +80,9 @@ def design_command(output, robot_path, grid, theta1, theta2, delta, safety_facto
 
     from ..design.study import design_grid, run_design
     from ..design.sweep import GridSpec, Requirements, parse_sweep, read_catalogue, run_sweep
-    from ..report.design_report import write_design
-    from ..report.sweep_report import write_sweep
+    from ..io.files import output_set
+    from ..report.design_report import design_outputs, write_design
+    from ..report.sweep_report import SWEEP_OUTPUTS, write_sweep
 
     console = Console(stderr=True, quiet=quiet)
     robot = load_robot(robot_path)
@@ -105,9 +106,10 @@ def design_command(output, robot_path, grid, theta1, theta2, delta, safety_facto
             result = run_sweep(robot, axes, grid=GridSpec(grid, *limits), safety_factor=safety_factor,
                                requirements=Requirements(required_force, min_frequency), workers=workers,
                                scheduler=scheduler, advance=advance)  # fmt: skip
-        sections.append(write_sweep(output, result, dpi))
-    with console.status("writing the figures and the report"):
-        write_design(output, design, seconds, dpi, sections)
+    with console.status("writing the figures and the report"), output_set(output, design_outputs() + SWEEP_OUTPUTS) as staging:
+        if axes:
+            sections.append(write_sweep(staging, result, dpi))
+        write_design(staging, design, seconds, dpi, sections)
     summary = design.summary()
     table = Table(title=f"{poses.theta1.size} poses, computed in {seconds:.2f} s")
     for name in ("quantity", "worst", "median"):

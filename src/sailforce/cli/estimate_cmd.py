@@ -27,6 +27,9 @@ from ._progress import progress_bar
 @click.option("--serial", "serial_port", default=None, metavar="PORT",
               help="Read the live stream from a serial port (pyserial URL or device).")
 @click.option("--baud", type=click.IntRange(1), default=115200, show_default=True, help="Serial baud rate.")
+@click.option("--columns", default=None, metavar="NAMES",
+              help="--serial: the stream's column names (comma-separated), for a device that sends no header line; "
+              "without it, lines before the first header line are skipped (a port joined mid-stream).")
 @click.option("--lsl-in", "lsl_in", default=None, metavar="NAME",
               help="Read the live stream from the Lab Streaming Layer stream NAME (theta1_deg, theta2_deg, load1, load2[, t_s]).")
 @click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
@@ -34,7 +37,7 @@ from ._progress import progress_bar
                    "status), stamped with the readings' times.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
-def estimate_command(cal_path, source, output, serial_port, baud, lsl_in, lsl_out, quiet, lowpass_hz, sample_rate_hz,
+def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, quiet, lowpass_hz, sample_rate_hz,
                      lowpass_order):  # fmt: skip
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
@@ -71,6 +74,8 @@ def estimate_command(cal_path, source, output, serial_port, baud, lsl_in, lsl_ou
     if not given:
         raise click.UsageError("give IN.csv, '-' for stdin, --serial PORT or --lsl-in NAME")
     live = serial_port is not None or lsl_in is not None or str(source) == "-"
+    if columns is not None and serial_port is None:
+        raise click.UsageError("--columns names a serial stream's columns: use it with --serial")
     if lsl_out is not None and not live:
         raise click.UsageError("--lsl-out publishes a live stream ('-', --serial or --lsl-in); a file has no live time")
     check_output(output, {"the input table": source, "the --calibration file": cal_path})
@@ -86,7 +91,7 @@ def estimate_command(cal_path, source, output, serial_port, baud, lsl_in, lsl_ou
     if cal.dynamics is not None and not live:
         _warn_if_static(console, cal, source)
     if live:
-        counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console)
+        counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns)
     else:
         unit = "rows" if is_parquet(source) else "bytes"
         with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
@@ -107,7 +112,20 @@ def _warn_if_static(console, cal, source) -> None:
                       "rates): the estimates are static, right only while the arm is at rest", highlight=False)  # fmt: skip
 
 
-def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console):
+def skipped_note(console, name: str):
+    """What to tell of the lines dropped before a joined stream's header (:func:`sailforce.live.sources.from_header`)."""
+
+    def note(count: int) -> None:
+        if count == 1:
+            console.print(f"{name} is already streaming: waiting for its next header line (a device that sends none "
+                          "needs --columns)", highlight=False)  # fmt: skip
+        else:
+            console.print(f"skipped {count:,} lines of {name} before its header", highlight=False)
+
+    return note
+
+
+def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None):
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
     from ..live import sources
     from ..live.pipeline import StampedLines, rows_of
@@ -138,7 +156,8 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console)
 
             blocks = inlet_blocks(lsl_in)
         elif serial_port is not None:
-            blocks = sources.stamped(stack.enter_context(sources.serial_lines(serial_port, baud)))
+            port = stack.enter_context(sources.serial_lines(serial_port, baud))
+            blocks = sources.stamped(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name)))
         else:
             blocks = sources.stamped(sources.stdin_lines())
         out = stack.enter_context(atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer))

@@ -28,6 +28,8 @@ MIN_TOKEN_CHARS = 16
 @click.option("--speed", cls=PrimaryOption, type=FINITE, default=1.0, show_default=True, help="Replay speed (2: twice as fast).")
 @click.option("--serial", "serial_port", default=None, metavar="PORT", help="Read the readings from a serial port.")
 @click.option("--baud", type=click.IntRange(1), default=115200, show_default=True, help="Serial baud rate.")
+@click.option("--columns", default=None, metavar="NAMES",
+              help="--serial: the stream's column names, for a device that sends no header (else lines before one are skipped).")
 @click.option("--simulate", is_flag=True, help="The simulated arm: reaching movements with a hand pulling toward each "
               "target, 1 kHz, through the synthetic noise model (`make live` calibrates for it).")
 @robot_option
@@ -51,7 +53,7 @@ MIN_TOKEN_CHARS = 16
 @click.option("-v", "--verbose", is_flag=True,
               help="Also log pages connecting and commands carried out (refused and malformed messages always are).")
 @lowpass_options
-def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, robot_path, rig, lsl_in, lsl_out, host, port,
+def live_command(cal_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in, lsl_out, host, port,
                  allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
     """Serve a live page of the arm and its force at http://127.0.0.1:8050/.
 
@@ -88,6 +90,8 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
         raise click.UsageError(f"{source} is a file: add --replay to play it back at its own pace")
     if replay and (source is None or str(source) == "-"):
         raise click.UsageError("--replay plays back a file: give IN.csv")
+    if columns is not None and serial_port is None:
+        raise click.UsageError("--columns names a serial stream's columns: use it with --serial")
     if robot_path is not None and not simulate:
         raise click.UsageError("--robot sets up the simulated arm: use it with --simulate")
     if not speed > 0:
@@ -113,7 +117,7 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
 
     with ExitStack() as stack:
         blocks, label = _source(stack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, sample_rate_hz,
-                                cal.arm)  # fmt: skip
+                                cal.arm, columns, console)  # fmt: skip
         pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt)
         server = LiveServer(pipeline, record_dir=record_dir, record_format=record_format, calibration_path=cal_path, hosts=hosts,
                             **({"token": token} if token else {}))  # fmt: skip
@@ -148,7 +152,8 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, simulate, r
                 console.print(f"saved calibration {path}", highlight=False)
 
 
-def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, rate_hz, cal_arm):
+def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, rate_hz, cal_arm, columns,
+            console):  # fmt: skip
     """The chosen source's blocks, and a label for people."""
     from ..live import sources
 
@@ -159,7 +164,11 @@ def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, r
         check_same_arm(cal_arm, robot.arm, robot_path)
         return sources.simulated_arm(robot, rig=rig, speed=speed), f"simulated arm (rig {rig})"
     if serial_port is not None:
-        return sources.stamped(stack.enter_context(sources.serial_lines(serial_port, baud))), f"serial port {serial_port}"
+        from .estimate_cmd import skipped_note
+
+        name = f"serial port {serial_port}"
+        port = stack.enter_context(sources.serial_lines(serial_port, baud))
+        return sources.stamped(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name))), name
     if lsl_in is not None:
         from ..live.lsl import inlet_blocks
 

@@ -252,3 +252,37 @@ def check_sidecar(output: str | Path) -> Path:
         raise OutputPathError(f"{sidecar} exists and is not a sidecar sailforce wrote; -o {output} would replace it. "
                               "Move it or choose another -o")  # fmt: skip
     return sidecar
+
+
+@contextmanager
+def output_set(directory: str | Path, names: tuple[str, ...]) -> Iterator[Path]:
+    """Yield a staging folder for a set of outputs; move them into ``directory`` together once all are written.
+
+    A command whose outputs belong together (a report and the tables it
+    describes) writes them into the staging folder; only when the block ends
+    without error do they replace ``directory``'s, one rename each, and the
+    files of ``names`` that this run did not write (a previous run's
+    ``sweep.csv`` beside a report without a sweep) are removed, so the folder
+    never mixes two runs.  An interrupt or an error leaves the previous set as
+    it was and removes the staging folder.
+    """
+    import shutil
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        check_regular_output(directory / name)
+    staging = directory / f".sail-staging-{secrets.token_hex(6)}"
+    staging.mkdir()
+    try:
+        yield staging
+        written = {p.name for p in staging.iterdir()}
+        for name in sorted(written):
+            check_regular_output(directory / name)
+            os.replace(staging / name, Path(os.path.realpath(directory / name)))
+        for name in set(names) - written:
+            stale = directory / name
+            if stale.is_file() or stale.is_symlink():
+                stale.unlink()
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)

@@ -212,6 +212,9 @@ def load_robot_file(path: str | Path) -> RobotFile:
         raise RobotFileError(f"{path}: cannot read ({exc.strerror})") from None
     try:
         data = tomllib.loads(raw.removeprefix(b"\xef\xbb\xbf").decode("utf-8"))  # editors may add a byte-order mark
+    except RecursionError:
+        raise RobotFileError(f"{path}: nested too deeply to be a robot file (arrays or tables within each other "
+                             "thousands of levels down)") from None
     except UnicodeDecodeError as exc:
         raise RobotFileError(f"{path}: not a text file (byte {exc.start} is not UTF-8); expected a TOML robot file") from None
     except tomllib.TOMLDecodeError as exc:

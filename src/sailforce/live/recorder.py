@@ -23,15 +23,21 @@ import threading
 import time
 from pathlib import Path
 
+import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
+from ..errors import SailError
 from ..io.files import atomic_writer
 
 RECORD_FORMATS = ("csv", "parquet")
 
 #: Names tried for a recording made in the same second as another, before giving up.
 MAX_NAME_TRIES = 1000
+
+
+class RecordingError(SailError):
+    """A recording that could not be finished as asked (its CSV is kept)."""
 
 
 def fresh_file(directory: Path, stem: str, suffix: str) -> tuple[Path, int]:
@@ -107,6 +113,10 @@ class Recorder:
             table = pacsv.read_csv(self.path)
             with atomic_writer(target, "wb") as stream:
                 pq.write_table(table, stream)
+        except pa.ArrowException as exc:  # a row the stream passed through as it came (a stray comma): keep the CSV
+            target.unlink(missing_ok=True)
+            first = str(exc).splitlines()[0][:200]
+            raise RecordingError(f"{self.path.name} could not be converted to Parquet ({first}); the CSV is kept") from None
         except BaseException:
             target.unlink(missing_ok=True)
             raise

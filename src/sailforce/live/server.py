@@ -440,6 +440,9 @@ class LiveServer:
         except (CommandError, SailError, OSError) as exc:
             log.warning("command %s failed: %s", name, exc)
             return {"ok": False, "error": str(exc)}
+        except Exception as exc:  # a bug: the page still gets an answer, and the log says where
+            log.exception("command %s failed unexpectedly", name)
+            return {"ok": False, "error": f"internal error ({type(exc).__name__}: {exc}); please report it"}
         log.info("command %s: %s", name, _dumps(result))
         return {"ok": True} | result
 

@@ -169,6 +169,40 @@ def serial_lines(port_name: str, baud: int):
         yield lines()
 
 
+def is_header(line: bytes, required: tuple[str, ...] = READING_COLUMNS) -> bool:
+    """Whether ``line`` names (at least) the ``required`` columns: a header line, not a row of readings."""
+    names = {name.strip() for name in line.decode("utf-8", errors="replace").lstrip("\ufeff").split(",")}
+    return set(required) <= names
+
+
+def from_header(lines: Iterator[bytes], *, columns: str | None = None,
+                on_skipped: Callable[[int], None] | None = None) -> Iterator[bytes]:  # fmt: skip
+    """A stream from its header on, for a port joined while the device already streams.
+
+    Opening a serial port flushes what it had received, and a device that
+    streams without resetting never sends its header again.  With
+    ``columns`` (``--columns``: the header's names, comma-separated) that
+    header comes first and every line is a row.  Otherwise the lines before
+    the first header line are dropped; ``on_skipped(n)`` hears of the first
+    dropped line (n = 1) and, once the header comes, of their count.
+    """
+    if columns is not None:
+        yield (columns.strip() + "\n").encode()
+        yield from lines
+        return
+    skipped = 0
+    for line in lines:
+        if is_header(line):
+            if skipped and on_skipped is not None:
+                on_skipped(skipped)
+            yield line
+            yield from lines
+            return
+        skipped += 1
+        if skipped == 1 and on_skipped is not None:
+            on_skipped(1)
+
+
 def stdin_lines() -> Iterator[bytes]:
     """Raw lines from standard input, until it ends."""
     return iter(lambda: read_line(sys.stdin.buffer), b"")

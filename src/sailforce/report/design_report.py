@@ -179,6 +179,11 @@ def report_markdown(design: Design, seconds: float, sections: Sequence[str] = ()
     ]) + "\n"  # fmt: skip
 
 
+def design_outputs() -> tuple[str, ...]:
+    """Every file :func:`write_design` writes."""
+    return ("design.json", *FIGURES, "report.md", "report.html")
+
+
 def write_design(directory: Path, design: Design, seconds: float, dpi: int, sections: Sequence[str] = ()) -> None:
     """``design.json``, the figures, ``report.md`` and the self-contained ``report.html`` into ``directory``;
     ``sections`` (Markdown, a sweep's) are appended to the report."""

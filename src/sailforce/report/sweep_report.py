@@ -92,6 +92,10 @@ def sweep_markdown(result: SweepResult) -> str:
     return "\n\n".join(parts)
 
 
+#: Every file :func:`write_sweep` writes.
+SWEEP_OUTPUTS = ("sweep.csv", "sweep.parquet", "pareto.png")
+
+
 def write_sweep(directory: Path, result: SweepResult, dpi: int) -> str:
     """``sweep.csv``, ``sweep.parquet`` and ``pareto.png`` into ``directory``; returns the report's section."""
     directory.mkdir(parents=True, exist_ok=True)
