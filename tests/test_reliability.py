@@ -312,28 +312,30 @@ def _dynamic_calibration(cals) -> Path:
     return d / "dynamic.json"
 
 
-@pytest.mark.parametrize("after_rows", [120, 170, 230])
+@pytest.mark.parametrize("after_rows", [120, 3000, 20_000])
 def test_ctrl_c_with_a_dynamic_term_keeps_every_row(cals, tmp_path, after_rows):
     """`gen | sail estimate --calibration dynamic.json - -o x.csv`, then SIGINT: the row half a window (50 rows)
     before the last was lost in 4 runs of 4.  Every row read must come out, in order, with none missing."""
     import signal
+    import threading
     import time
 
     cal = Calibration.load(_dynamic_calibration(cals))
     o1, o2 = cal.offsets
-    rows = "".join(f"{0.001 * k:.3f},{60 + 10 * np.sin(k / 500):.6f},{10 * np.cos(k / 700):.6f},{o1 + 900:.0f},{o2 - 400:.0f}\n"
-                   for k in range(200_000))  # fmt: skip
+    rows = [f"{0.001 * k:.3f},{60 + 10 * np.sin(k / 500):.6f},{10 * np.cos(k / 700):.6f},{o1 + 900:.0f},{o2 - 400:.0f}\n"
+            for k in range(200_000)]  # fmt: skip
     process = subprocess.Popen([str(SAIL), "estimate", "--calibration", str(_dynamic_calibration(cals)), "-", "-o", "x.csv", "-q"],
                                cwd=tmp_path, stdin=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
 
-    def feed():
+    def feed():  # 20,000 rows a second, as a fast device would send them: the stream lasts 10 s
         try:
-            process.stdin.write(b"t_s,theta1_deg,theta2_deg,load1,load2\n" + rows.encode())
-            process.stdin.close()
-        except (BrokenPipeError, ValueError):
+            process.stdin.write(b"t_s,theta1_deg,theta2_deg,load1,load2\n")
+            for start in range(0, len(rows), 100):
+                process.stdin.write("".join(rows[start : start + 100]).encode())
+                process.stdin.flush()
+                time.sleep(0.005)
+        except (BrokenPipeError, ValueError, OSError):
             pass
-
-    import threading
 
     writer = threading.Thread(target=feed, daemon=True)
     writer.start()
@@ -345,7 +347,9 @@ def test_ctrl_c_with_a_dynamic_term_keeps_every_row(cals, tmp_path, after_rows):
         time.sleep(0.002)
     assert process.poll() is None, "the estimate ended before it could be interrupted"
     process.send_signal(signal.SIGINT)
-    _, stderr = process.communicate(timeout=60)
+    process.wait(timeout=60)
+    stderr = process.stderr.read()
+    writer.join(timeout=10)
     assert process.returncode == 130 and b"Traceback" not in stderr, stderr
     lines = (tmp_path / "x.csv").read_text().splitlines()
     assert len(lines) > after_rows, "too few rows to test the half window"

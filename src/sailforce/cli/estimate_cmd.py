@@ -157,9 +157,9 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
             blocks = inlet_blocks(lsl_in)
         elif serial_port is not None:
             port = stack.enter_context(sources.serial_lines(serial_port, baud))
-            blocks = sources.stamped(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name)))
+            blocks = sources.gathered(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name)))
         else:
-            blocks = sources.stamped(sources.stdin_lines())
+            blocks = sources.gathered(sources.stdin_lines())
         out = stack.enter_context(atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer))
         return estimate_lines(cal, stamps.lines(blocks), lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report,
                               on_rows=on_rows)  # fmt: skip

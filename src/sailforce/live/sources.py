@@ -15,6 +15,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -204,8 +205,65 @@ def from_header(lines: Iterator[bytes], *, columns: str | None = None,
 
 
 def stdin_lines() -> Iterator[bytes]:
-    """Raw lines from standard input, until it ends."""
-    return iter(lambda: read_line(sys.stdin.buffer), b"")
+    """Raw lines from standard input, until it ends.
+
+    Read through a reader of its own on a duplicate of the descriptor: a
+    thread blocked in ``sys.stdin.buffer`` holds its lock, and Python aborts
+    at exit (Ctrl-C) when it cannot take that lock to close it.
+    """
+    try:
+        stream = os.fdopen(os.dup(sys.stdin.fileno()), "rb")
+    except (OSError, ValueError, AttributeError):  # io.UnsupportedOperation: a stdin in memory (tests, embedding)
+        stream = sys.stdin.buffer
+    return iter(lambda: read_line(stream), b"")
+
+
+#: Lines gathered into one block at most, by :func:`gathered`: about 10 ms of a 1 kHz stream's work at full speed.
+GATHER_LINES = 4096
+
+
+def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES) -> Iterator[Block]:
+    """Blocks of every stamped line that has arrived, read on a thread of their own: a stream estimated in blocks.
+
+    A stream that arrives faster than it is estimated line by line (a pipe,
+    a 1 kHz port behind a dynamic term) comes in blocks of all that is
+    waiting, up to ``limit`` lines; one that arrives slowly comes a line at
+    a time, as :func:`stamped` gives it.  No line waits for others to come:
+    a block is what had already arrived.  Each line keeps its arrival time.
+    """
+    import queue
+    import threading
+
+    waiting: queue.Queue = queue.Queue(maxsize=64 * limit)
+    end = object()
+
+    def read() -> None:
+        try:
+            for line in lines:
+                waiting.put((line, time.time()))
+        except BaseException as exc:  # the source's error ends the stream, in the reading thread
+            waiting.put(exc)
+        finally:
+            waiting.put(end)
+
+    threading.Thread(target=read, name="sail-stream-reader", daemon=True).start()
+    while True:
+        item = waiting.get()
+        block: Block = []
+        while item is not end and not isinstance(item, BaseException):
+            block.append(item)
+            if len(block) >= limit:
+                break
+            try:
+                item = waiting.get_nowait()
+            except queue.Empty:
+                break
+        if block:
+            yield block
+        if item is end:
+            return
+        if isinstance(item, BaseException):
+            raise item
 
 
 def stamped(lines: Iterator[bytes]) -> Iterator[Block]:
