@@ -747,3 +747,46 @@ def test_a_serial_device_without_a_header_is_read_with_columns(tmp_path):
     code, stderr, lines = _serial_session(tmp_path, row * 4, row * 3, "--columns", "theta1_deg,theta2_deg,load1,load2")
     assert code == 0, stderr
     assert len(lines) == 8 and all(line.endswith(",ok") for line in lines[1:])
+
+
+# -- LOW: reasons in the summary, duplicated --sweep keys, absurd robot values, long --name -------------------------
+def test_the_summary_says_why_rows_are_motion_unknown_or_extrapolated(cals, task_session, tmp_path):
+    d, _, _ = cals
+    _, table = task_session
+    result, _ = _estimate(d / "dynamic.json", table, tmp_path, "why")
+    assert result.returncode == 0 and "motion-unknown: within 50 ms (half the rate window) of the start" in result.stderr
+    static = table.drop(columns="t_s").assign(theta2_deg=np.where(table.index < 50, table.theta1_deg - 8.0, table.theta2_deg))
+    result, out = _estimate(d / "static.json", static, tmp_path, "static")
+    assert result.returncode == 0 and (out.status == "extrapolated").sum() == 50
+    assert "extrapolated: delta = theta1 - theta2 outside the calibrated" in result.stderr and "motion-unknown:" not in result.stderr
+
+
+def test_a_duplicated_sweep_key_is_refused():
+    from click.testing import CliRunner
+
+    from sailforce.cli import cli
+
+    result = CliRunner().invoke(cli, ["design", "-o", "unused", "--grid", "4", "--sweep", "loadcells.position=0.3,0.6",
+                                      "--sweep", "loadcells.position=0.4"])  # fmt: skip
+    assert result.exit_code != 0 and "given twice" in result.output and not Path("unused").exists()
+
+
+def test_absurd_robot_values_are_warned_about(tmp_path):
+    (tmp_path / "r.toml").write_text("[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n[sections]\ndepth = 1e6\n[handle]\nmass = 1e300\n")
+    result = subprocess.run([str(SAIL), "robot", "show", "--robot", "r.toml"], cwd=tmp_path, capture_output=True, text=True)
+    assert result.returncode == 0
+    warned = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    assert len(warned) == 2 and "sections.depth = 1e+06 m" in warned[0] and "handle.mass = 1e+300 kg" in warned[1]
+    from sailforce.io.robotkeys import plausibility_warnings
+    from sailforce.robot import Robot
+
+    assert plausibility_warnings(Robot()) == []
+
+
+def test_a_long_export_c_name_is_refused(tmp_path):
+    from sailforce.calibration.export_c import ExportError, calibration_header
+
+    cal = Calibration.load(CAL_PATH)
+    with pytest.raises(ExportError, match="10,000 characters"):
+        calibration_header(cal, "a" * 10_000)
+    assert "static const sail_calibration " + "b" * 48 in calibration_header(cal, "b" * 48)

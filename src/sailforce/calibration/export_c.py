@@ -94,7 +94,15 @@ def _padded(rows: list, width: int) -> list:
     return [list(r) + [0.0] * (width - len(r)) for r in rows]
 
 
+#: The longest name exported: C99 guarantees 63 significant characters of an identifier, and the name gains
+#: suffixes (``_lowpass_df2T``) and an upper-cased guard.
+MAX_NAME_CHARS = 48
+
+
 def _check_name(name: str, lowpass: bool = False, dynamics: bool = False) -> None:
+    if len(name) > MAX_NAME_CHARS:
+        raise ExportError(f"--name is {len(name):,} characters long; C keeps {MAX_NAME_CHARS} at most with its suffixes "
+                          "(C99: 63 significant characters); choose a shorter name")  # fmt: skip
     if not _C_NAME.match(name):
         raise ExportError(f"--name {name!r} is not a C identifier (letters, digits and _, not starting with a digit)")
     if name in C_KEYWORDS:

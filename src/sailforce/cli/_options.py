@@ -76,9 +76,23 @@ def load_arm(robot_path: Path | None) -> Arm:
 
 
 def load_robot(robot_path: Path | None, joints: str | None = None) -> Robot:
-    """The structure described by ``--robot`` (default robot if None), with ``--joints`` applied."""
-    robot = Robot() if robot_path is None else load_robot_file(robot_path).robot
+    """The structure described by ``--robot`` (default robot if None), with ``--joints`` applied.
+
+    Values the file may hold but no arm a hand holds has (a section 1e6 m deep) are warned about on stderr.
+    """
+    robot = Robot() if robot_path is None else _robot_file(robot_path)
     return robot if joints is None else robot.with_joints(joints)
+
+
+def _robot_file(robot_path: Path) -> Robot:
+    from rich.console import Console
+
+    from ..io.robotkeys import plausibility_warnings
+
+    robot = load_robot_file(robot_path).robot
+    for warning in plausibility_warnings(robot):
+        Console(stderr=True).print(f"[bold yellow]warning:[/bold yellow] {robot_path}: {warning}", highlight=False, soft_wrap=True)
+    return robot
 
 
 def spec(name: str):
@@ -137,7 +151,7 @@ def robot_with_joints(robot_path: Path | None, joints: str | None, default: str,
     """
     if robot_path is None:
         return Robot().with_joints(joints or default)
-    robot = load_robot_file(robot_path).robot
+    robot = _robot_file(robot_path)
     if joints is None:
         return robot
     if robot.joints.label != joints:

@@ -7,6 +7,7 @@ from contextlib import ExitStack, nullcontext
 from pathlib import Path
 
 import click
+import numpy as np
 from rich.console import Console
 
 from .. import kernel
@@ -102,6 +103,25 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
         counts.pop("motion-unknown")
     summary = ", ".join(f"{name} {n:,}" for name, n in counts.items())
     console.print(f"{total:,} rows: {summary}" + ("" if live else f"; wrote {output}"), highlight=False)
+    for line in status_reasons(cal, counts):
+        console.print(line, highlight=False, soft_wrap=True)
+
+
+def status_reasons(cal, counts: dict[str, int]) -> list[str]:
+    """Why rows are extrapolated or motion-unknown, for the summary: the calibration's range and the rate window."""
+    from ..motion.differentiate import MAX_JOINT_ACCEL, MAX_JOINT_RATE
+
+    reasons = []
+    if counts.get("extrapolated"):
+        lo, hi = np.degrees(cal.delta_range)
+        reasons.append(f"extrapolated: delta = theta1 - theta2 outside the calibrated {lo:.4g} .. {hi:.4g} deg (the force "
+                       "is given, less accurate)")  # fmt: skip
+    if counts.get("motion-unknown") and cal.dynamics is not None:
+        half = cal.dynamics.differentiator.window_s / 2
+        reasons.append(f"motion-unknown: within {half * 1e3:g} ms (half the rate window) of the start, the end, a gap "
+                       f"or an invalid row, or moving faster than an arm can ({MAX_JOINT_RATE:g} rad/s, "
+                       f"{MAX_JOINT_ACCEL:g} rad/s^2): no force")  # fmt: skip
+    return reasons
 
 
 def _warn_if_static(console, cal, source) -> None:

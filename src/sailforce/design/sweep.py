@@ -153,6 +153,14 @@ class Variant:
 
 def variants(robot: Robot, axes: Sequence[Axis]) -> list[Variant]:
     """Every combination of the axes' settings on ``robot``, each validated; a bad one is refused, naming it."""
+    owner: dict[str, str] = {}
+    for axis in axes:
+        for key in sorted({k for setting in axis.settings for k in setting}):
+            if key in owner:
+                twice = f"--sweep {key} is given twice" if owner[key] == axis.name else (
+                    f"{key} is set by both --sweep {owner[key] if owner[key] != 'cell' else key} and the cell catalogue")
+                raise DesignError(f"{twice}: one would silently override the other; give each key once")
+            owner[key] = axis.name
     total = math.prod(len(a.settings) for a in axes)
     if total > MAX_VARIANTS:
         raise DesignError(f"the sweep has {total:,} variants, more than {MAX_VARIANTS:,}: coarsen a step")

@@ -101,3 +101,25 @@ def with_keys(robot: Robot, values: Mapping[str, Any]) -> Robot:
         return robot_from_data(edited, "<" + ", ".join(f"{k} = {v!r}" for k, v in values.items()) + ">")
     except RobotFileError as exc:
         raise RobotFileError(str(exc).replace(">: [", ">: the robot file's [", 1)) from None
+
+
+#: What an arm that a hand holds can plausibly have, by the last part of a key: (low, high, unit).  A value
+#: outside is accepted, with a warning: a section 1e6 m deep or a 1e300 kg handle is a unit slip, not a design.
+PLAUSIBLE = {
+    "depth": (1e-4, 0.5, "m"), "thickness": (1e-4, 0.5, "m"), "length": (1e-3, 0.5, "m"),
+    "mass": (0.0, 50.0, "kg"), "capacity_kg": (0.01, 1e4, "kg"), "rated_deflection": (1e-7, 0.05, "m"),
+    "E": (1e8, 1.5e12, "Pa"), "rho": (100.0, 25_000.0, "kg/m^3"), "yield_strength": (1e6, 1e10, "Pa"),
+    "stiffness": (0.0, 1e12, "N m/rad"), "noise_mV_V": (0.0, 1.0, "mV/V"), "rated_output_mV_V": (0.01, 100.0, "mV/V"),
+}  # fmt: skip
+
+
+def plausibility_warnings(robot: Robot) -> list[str]:
+    """One line per value outside :data:`PLAUSIBLE`, naming the key, its value and the range."""
+    warnings = []
+    for key, value in _leaves(robot_data(robot)):  # the file's own tables: no per-link copy of a shared value
+        bounds = PLAUSIBLE.get(key.rsplit(".", 1)[-1])
+        if bounds is not None and not isinstance(value, str) and not bounds[0] <= value <= bounds[1]:
+            low, high, unit = bounds
+            warnings.append(f"{key} = {value:g} {unit} is outside {low:g} .. {high:g} {unit}, implausible for an arm "
+                            "a hand holds; check its unit")  # fmt: skip
+    return warnings
