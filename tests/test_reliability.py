@@ -790,3 +790,27 @@ def test_a_long_export_c_name_is_refused(tmp_path):
     with pytest.raises(ExportError, match="10,000 characters"):
         calibration_header(cal, "a" * 10_000)
     assert "static const sail_calibration " + "b" * 48 in calibration_header(cal, "b" * 48)
+
+
+# -- SIGINT while Dask workers start ---------------------------------------------------------------------------------
+DASK_INTERRUPTED = """
+import os, signal, sys, threading
+from sailforce.cli import _terminate
+from sailforce.distributed import run_tasks
+signal.signal(signal.SIGTERM, _terminate)
+threading.Timer(float(sys.argv[1]), lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+try:
+    run_tasks(abs, list(range(40)), workers=2)
+except KeyboardInterrupt:
+    sys.exit(130)
+sys.exit(3)  # finished before the interrupt
+"""
+
+
+@pytest.mark.parametrize("delay_s", [0.05, 0.2, 0.4, 0.6, 0.9])
+def test_ctrl_c_while_dask_workers_start_exits_cleanly(delay_s):
+    """Ctrl-C while the LocalCluster started its workers left a half-made cluster: Dask's atexit hook then failed with
+    AssertionError: Status.init (and sometimes 'Nanny failed to start'), after the exit message."""
+    result = subprocess.run([sys.executable, "-c", DASK_INTERRUPTED, str(delay_s)], capture_output=True, text=True, timeout=120)
+    assert result.returncode in (130, 3), result.stderr
+    assert "Traceback" not in result.stderr and "AssertionError" not in result.stderr, result.stderr
