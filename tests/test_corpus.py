@@ -10,6 +10,7 @@ These are the promises of docs/reference/guarantees.md.
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import subprocess
 import sys
@@ -35,6 +36,38 @@ def reading(theta1=90, theta2=0, load1=OFFSETS[0] + 1000, load2=OFFSETS[1] - 500
 GOOD = HEADER + b"".join(reading(theta1=60 + i) for i in range(20))
 NOLOAD = b"load1,load2\n" + b"".join(f"{OFFSETS[0] + i % 3:.0f},{OFFSETS[1] - i % 2:.0f}\n".encode() for i in range(40))
 ROBOT_TOML = b"[links]\nl1 = 0.2\nl2 = 0.3\nl3 = 0.45\nl4 = 0.3\n"
+
+def _resealed(edit) -> bytes:
+    """c/examples/calibration.json edited by ``edit(data)`` and its checksum recomputed, as anyone can."""
+    from sailforce.calibration.file import checksum
+
+    data = json.loads(CAL)
+    edit(data)
+    data.pop("checksum")
+    return json.dumps(data | {"checksum": checksum(data)}).encode()
+
+
+def _set(*path_value):
+    def edit(data):
+        *path, key, value = path_value
+        node = data
+        for part in path:
+            node = node[part]
+        node[key] = value
+
+    return edit
+
+
+def _scaled_model(factor):
+    def edit(data):
+        data["model"]["coefficients"] = [[[c * factor for c in row] for row in m] for m in data["model"]["coefficients"]]
+
+    return edit
+
+
+MS_TABLE = b"t_s,theta1_deg,theta2_deg,load1,load2\n" + b"".join(
+    f"{k},{80 + 0.01 * k:.4f},10,{OFFSETS[0] + 900:.0f},{OFFSETS[1] - 400:.0f}\n".encode() for k in range(300))
+
 
 
 @dataclass(frozen=True)
@@ -114,6 +147,31 @@ CASES = [
          "--protocol file", files={"out/poses.csv": b"theta1_deg,theta2_deg\n60,20\n"}),
     Case("estimate -o a link to /dev/null", ("estimate", "--calibration", "cal.json", "in.csv", "-o", "dev.csv"), 1,
          "not a regular file", files=_base(), links={"dev.csv": "/dev/null"}),
+    # Round two: the calibration file's authority, motion data, the robot file, the sweeps.
+    Case("export-c injected comment", ("export-c", "c.json", "-o", "h.h"), 1, "created",
+         files={"c.json": _resealed(_set("created", "x */ static const int injected = 1; /*"))}),
+    Case("export-c injected load unit", ("export-c", "c.json", "-o", "h.h"), 1, "units.load",
+         files={"c.json": _resealed(_set("units", "load", "raw */ int x; /*"))}),
+    Case("calibration amplitude 1e-300", ("estimate", "--calibration", "c.json", "in.csv", "-o", "o.csv"), 1, "model",
+         files={"c.json": _resealed(_scaled_model(1e-300)), "in.csv": GOOD}),
+    Case("calibration capacity 1e308", ("estimate", "--calibration", "c.json", "in.csv", "-o", "o.csv"), 1, "capacity",
+         files={"c.json": _resealed(_set("capacity", [1e308, 1e308])), "in.csv": GOOD}),
+    Case("calibration reversed load range", ("estimate", "--calibration", "c.json", "in.csv", "-o", "o.csv"), 1,
+         "load_range", files={"c.json": _resealed(_set("load_range", [[5.0, -5.0], [0.0, 1.0]])), "in.csv": GOOD}),
+    Case("calibration schema_version true", ("estimate", "--calibration", "c.json", "in.csv", "-o", "o.csv"), 1,
+         "schema_version", files={"c.json": _resealed(_set("schema_version", True)), "in.csv": GOOD}),
+    Case("export-c 10,000-character name", ("export-c", "cal.json", "--name", "a" * 10_000, "-o", "h.h"), 1,
+         "characters", files=_base()),
+    Case("deeply nested robot TOML", ("robot", "show", "--robot", "r.toml"), 1, "nested too deeply",
+         files={"r.toml": ROBOT_TOML + b"[x]\ny = " + b"[" * 5000 + b"]" * 5000 + b"\n"}),
+    Case("--scheduler file://", ("design", "-o", "d", "--grid", "4", "--sweep", "loadcells.position=0.3,0.6",
+                                 "--scheduler", "file:///tmp/nowhere"), 1, "cannot reach the Dask scheduler"),
+    Case("--sweep key twice", ("design", "-o", "d", "--grid", "4", "--sweep", "loadcells.position=0.3,0.6",
+                               "--sweep", "loadcells.position=0.4"), 1, "given twice"),
+    Case("robot reading unknown", ("robot", "show", "--robot", "r.toml"), 1, "reading",
+         files={"r.toml": ROBOT_TOML + b'[loadcells]\nreading = "strain"\n'}),
+    Case("--columns without --serial", ("estimate", "--calibration", "cal.json", "-", "--columns", "a,b"), 2, "--serial",
+         files=_base()),
     Case("simulate -o ROBOT", ("simulate", "--robot", "r.csv", "--theta1-deg=90", "--theta2-deg=0", "-o", "r.csv"), 1,
          "--robot", files={"r.csv": ROBOT_TOML}),
     Case("symlinked output stays a link", ("estimate", "--calibration", "cal.json", "in.csv", "-o", "link.csv"), 0,
