@@ -280,8 +280,8 @@ class LiveServer:
         name = request.match_info["name"]
         kinds = {".js": "text/javascript", ".css": "text/css", ".svg": "image/svg+xml"}
         resource = self._static.get(name)  # only the package's own files, looked up by name: no path is opened
-        kind = kinds.get(Path(name).suffix) if resource is not None else None
-        if kind is None:
+        kind = kinds.get(Path(name).suffix)
+        if resource is None or kind is None:
             raise web.HTTPNotFound()
         return web.Response(body=resource.read_bytes(), content_type=kind)
 

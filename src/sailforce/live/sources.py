@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -211,6 +212,7 @@ def stdin_lines() -> Iterator[bytes]:
     thread blocked in ``sys.stdin.buffer`` holds its lock, and Python aborts
     at exit (Ctrl-C) when it cannot take that lock to close it.
     """
+    stream: BinaryIO
     try:
         stream = os.fdopen(os.dup(sys.stdin.fileno()), "rb")
     except (OSError, ValueError, AttributeError):  # io.UnsupportedOperation: a stdin in memory (tests, embedding)

@@ -115,7 +115,8 @@ def _read_entry(path: Path, key: str, inputs: dict) -> dict | None:
         raise DamagedEntry(f"content a cache entry cannot hold ({exc})") from None
     if claimed != actual:
         raise DamagedEntry("its checksum does not match its content")
-    if entry.get("key") != key or cache_key(entry.get("inputs")) != key:
+    stored = entry.get("inputs")
+    if entry.get("key") != key or not isinstance(stored, dict) or cache_key(stored) != key:
         raise DamagedEntry("its key is not its name's")
     if entry["inputs"] != inputs:
         raise DamagedEntry("it answers another request")

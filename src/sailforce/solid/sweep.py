@@ -21,6 +21,7 @@ import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -156,7 +157,7 @@ def run_poses(robot: Robot, poses, settings: SolidSettings = SolidSettings(), *,
     responses: list[SolidResponse | None] = [None] * len(tasks)
     todo = []
     for k, task in enumerate(tasks):
-        entry = cache.read(task_inputs(task), lambda value, task=task: checked_response(value, task))
+        entry = cache.read(task_inputs(task), partial(checked_response, task=task))
         if isinstance(entry, SolidResponse):
             responses[k] = entry
             advance(1)
