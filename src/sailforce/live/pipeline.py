@@ -128,7 +128,7 @@ class _Output:
         with self.lock:
             if self.recorder is not None:
                 self.recorder.write(data)
-                if self.recorder.error is not None:  # it stopped itself (disk full): the stream goes on without it
+                if getattr(self.recorder, "error", None) is not None:  # it stopped itself (disk full): the stream goes on
                     self.failed, self.recorder = self.recorder, None
         return len(data)
 
