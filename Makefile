@@ -24,8 +24,11 @@ install: $(STAMP)
 demo: $(STAMP) install-ccx
 	$(VENV)/bin/sail reproduce --solid -o $(DEMO_DIR)
 
+# the suite on every core (pytest-xdist; a module with module-scoped fixtures stays on one worker), the 15 slowest
+# tests printed so that a slow one is seen when it arrives; PYTEST_FLAGS= runs it in one process
+PYTEST_FLAGS ?= -n auto --dist loadgroup --durations=15
 test: $(STAMP) lint c-test chromium install-ccx
-	$(PY) -m pytest
+	$(PY) -m pytest $(PYTEST_FLAGS)
 
 # the simulated arm on the live page (sail live --simulate), calibrated as a lab would: a static session of the same
 # rig, `sail calibrate` with the robot file's dynamic term; open the URL it prints
