@@ -145,6 +145,8 @@ CASES = [
          "not a sidecar", files={"m.csv.json": b"precious"}),
     Case("solid-sweep over its --protocol", ("solid-sweep", "--protocol", "out/poses.csv", "-o", "out"), 1,
          "--protocol file", files={"out/poses.csv": b"theta1_deg,theta2_deg\n60,20\n"}),
+    Case("tare -o a link to /dev/null", ("tare", "cal.json", "n.csv", "-o", "null.json"), 1, "character device",
+         files=_base(**{"n.csv": NOLOAD}), links={"null.json": "/dev/null"}),
     Case("estimate -o a link to /dev/null", ("estimate", "--calibration", "cal.json", "in.csv", "-o", "dev.csv"), 1,
          "not a regular file", files=_base(), links={"dev.csv": "/dev/null"}),
     # Round two: the calibration file's authority, motion data, the robot file, the sweeps.
