@@ -215,7 +215,7 @@ def test_a_flood_is_logged_at_a_bounded_rate_and_the_server_still_answers(cals, 
     with caplog.at_level(logging.WARNING, logger="sailforce.live.server"):
         _serve(static, tmp_path, check)
     malformed = [r for r in caplog.records if "malformed" in r.getMessage()]
-    assert 1 <= len(malformed) <= live_server.LOG_BURST
+    assert malformed and len(malformed) <= live_server.LOG_BURST  # some logged, and at most a burst of them
 
 
 def test_many_clients_are_served_and_one_more_is_refused(cals, tmp_path):
