@@ -16,9 +16,6 @@ from sailforce.fem.response import simulate_model
 from sailforce.robot import Robot
 from sailforce.synthetic import HX711_COUNTS_PER_MV_V, NoiseModel, calibration_session, recording
 
-#: Under pytest-xdist (make test), this module runs on one worker: its module-scoped fixtures are built once.
-pytestmark = pytest.mark.xdist_group("test_calibration")
-
 #: Issue 5: the calibrated estimator's force error must stay within this factor of the noise floor.
 NOISE_FLOOR_FACTOR = 1.5
 

@@ -13,9 +13,6 @@ from sailforce.io.robotfile import load_robot_file, template
 from sailforce.robot import Joints, Robot
 from sailforce.synthetic import NoiseModel, calibration_session
 
-#: Under pytest-xdist (make test), this module runs on one worker: its module-scoped fixtures are built once.
-pytestmark = pytest.mark.xdist_group("test_identify_cli")
-
 
 def run(*args: str):
     return CliRunner().invoke(cli, [str(a) for a in args], catch_exceptions=False)

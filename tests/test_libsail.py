@@ -27,9 +27,6 @@ from sailforce.calibration.streaming import estimate_lines
 from sailforce.cli import cli
 from sailforce.motion.differentiate import GAP_FACTOR
 
-#: Under pytest-xdist (make test), this module runs on one worker: its module-scoped fixtures are built once.
-pytestmark = pytest.mark.xdist_group("test_libsail")
-
 ROOT = Path(__file__).resolve().parents[1]
 HEADER = (ROOT / "c" / "include" / "sail.h").read_text()
 

@@ -21,9 +21,6 @@ from sailforce.motion.reaching import MINJERK_PEAK_ACCELERATION, MINJERK_PEAK_SP
 from sailforce.robot import Handle, Plane, Robot
 from sailforce.synthetic import calibration_session
 
-#: Under pytest-xdist (make test), this module runs on one worker: its module-scoped fixtures are built once.
-pytestmark = pytest.mark.xdist_group("test_motion")
-
 ROBOT = Robot(handle=Handle(mass=1.0))
 #: Issue 11's targets.
 FORCE_RMS_TARGET_N = 0.1

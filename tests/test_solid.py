@@ -27,9 +27,6 @@ from sailforce.solid.compare import compare
 from sailforce.solid.sweep import PoseTask, SolidSettings, run_poses, solve_task
 from tests.dask_cluster import local_cluster
 
-#: Under pytest-xdist (make test), this module runs on one worker: its module-scoped fixtures are built once.
-pytestmark = pytest.mark.xdist_group("test_solid")
-
 pytest.importorskip("gmsh")
 
 COARSE = 0.008  #: [m] element size for most tests: a pose in about a second

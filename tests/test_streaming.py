@@ -25,9 +25,6 @@ from sailforce.io.tables import READING_COLUMNS, read_chunks
 
 from .test_calibration import calibration_set
 
-#: Under pytest-xdist (make test), this module runs on one worker: its module-scoped fixtures are built once.
-pytestmark = pytest.mark.xdist_group("test_streaming")
-
 
 def run(*args, input=None):
     return CliRunner().invoke(cli, [str(a) for a in args], input=input, catch_exceptions=False)

@@ -14,9 +14,6 @@ from sailforce.cli import cli
 from sailforce.robot import Robot
 from sailforce.study import TABLE4_COLUMNS, Protocol, run_study
 
-#: Under pytest-xdist (make test), this module runs on one worker: its module-scoped fixtures are built once.
-pytestmark = pytest.mark.xdist_group("test_study")
-
 #: The frame solve is accurate to ~1e-12 relative (cond(K) ~1e7 times eps);
 #: quantities that physics makes exactly equal are compared at 1e-9.
 FE_RTOL = 1e-9
@@ -104,7 +101,7 @@ def test_extrapolation_is_worse_at_127_5(bonded):
         assert per_pose[outside][0] > np.median(per_pose[~outside])
 
 
-@pytest.fixture(scope="session")  # a module fixture is rebuilt when a worker's tests interleave with other modules'
+@pytest.fixture(scope="module")
 def reproduced(tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduce")
     result = CliRunner().invoke(cli, ["reproduce", "-o", str(out), "--dpi", "60"], catch_exceptions=False)
