@@ -53,3 +53,16 @@ def print_notes(console: Console, notes) -> None:
     """Each note for people (a damaged cache entry, a cache not written) as a warning line."""
     for note in notes:
         console.print(f"[bold yellow]warning:[/bold yellow] {note}", highlight=False)
+
+
+def skipped_note(console, name: str):
+    """What to tell of the lines dropped before a joined stream's header (:func:`sailforce.live.sources.from_header`)."""
+
+    def note(count: int) -> None:
+        if count == 1:
+            console.print(f"{name} is already streaming: waiting for its next header line (a device that sends none "
+                          "needs --columns)", highlight=False)  # fmt: skip
+        else:
+            console.print(f"skipped {count:,} lines of {name} before its header", highlight=False)
+
+    return note

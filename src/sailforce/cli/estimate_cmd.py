@@ -17,7 +17,7 @@ from ..io.files import atomic_writer, check_output, table_format
 from ..io.tables import READING_COLUMNS, csv_header, input_size, is_parquet, parquet_schema
 from . import cli
 from ._options import lowpass_options, make_lowpass
-from ._progress import progress_bar
+from ._progress import progress_bar, skipped_note
 
 
 @cli.command("estimate")
@@ -130,19 +130,6 @@ def _warn_if_static(console, cal, source) -> None:
     if table_motion(cal, source, names) is None:
         console.print(f"warning: the calibration has a dynamic term, but {source} has no t_s column (nor measured "
                       "rates): the estimates are static, right only while the arm is at rest", highlight=False)  # fmt: skip
-
-
-def skipped_note(console, name: str):
-    """What to tell of the lines dropped before a joined stream's header (:func:`sailforce.live.sources.from_header`)."""
-
-    def note(count: int) -> None:
-        if count == 1:
-            console.print(f"{name} is already streaming: waiting for its next header line (a device that sends none "
-                          "needs --columns)", highlight=False)  # fmt: skip
-        else:
-            console.print(f"skipped {count:,} lines of {name} before its header", highlight=False)
-
-    return note
 
 
 def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None):

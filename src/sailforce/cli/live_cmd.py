@@ -164,7 +164,7 @@ def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, r
         check_same_arm(cal_arm, robot.arm, robot_path)
         return sources.simulated_arm(robot, rig=rig, speed=speed), f"simulated arm (rig {rig})"
     if serial_port is not None:
-        from .estimate_cmd import skipped_note
+        from ._progress import skipped_note
 
         name = f"serial port {serial_port}"
         port = stack.enter_context(sources.serial_lines(serial_port, baud))
