@@ -14,7 +14,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from sailforce.cli import cli
-from sailforce.live.browser import browser_page, live_process
+from sailforce.live import browser_page, live_process
 
 OUT = Path(__file__).resolve().parent / "figures" / "live.png"
 

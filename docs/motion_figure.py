@@ -18,14 +18,22 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from sailforce.calibration.estimator import OK
-from sailforce.calibration.file import Calibration
-from sailforce.calibration.fit import fit_calibration
-from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term
-from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector
-from sailforce.motion.reaching import reaching, record
-from sailforce.robot import Handle, Plane, Robot
-from sailforce.synthetic import calibration_session
+from sailforce import (
+    OK,
+    Calibration,
+    Handle,
+    Plane,
+    Robot,
+    base_parameters,
+    calibration_session,
+    estimate_moving,
+    fit_calibration,
+    fit_dynamic_term,
+    inertial_parameters,
+    parameter_vector,
+    reaching,
+    record,
+)
 
 
 def main(output: Path) -> None:

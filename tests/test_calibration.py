@@ -7,16 +7,16 @@ import json
 import numpy as np
 import pytest
 
-from sailforce.calibration.compensation import CompensationError, MatrixCompensator
-from sailforce.calibration.estimator import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
 from sailforce.calibration.file import Calibration, CalibrationFileError, checksum
-from sailforce.calibration.fit import equivalent_capacity, fit_calibration
+from sailforce.estimate.estimator import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
 from sailforce.fem.model import build_model
 from sailforce.fem.response import simulate_model
+from sailforce.fit.calibration import equivalent_capacity, fit_calibration
 from sailforce.robot import Robot
+from sailforce.sensing.maps import CompensationError, MatrixCompensator
 from sailforce.synthetic import HX711_COUNTS_PER_MV_V, NoiseModel, calibration_session, recording
 
-#: Issue 5: the calibrated estimator's force error must stay within this factor of the noise floor.
+#: The calibrated estimator's force error must stay within this factor of the noise floor.
 NOISE_FLOOR_FACTOR = 1.5
 
 ROBOT = Robot().with_joints("spring")  # moment-carrying joints: a delta-dependent map to calibrate
@@ -198,7 +198,7 @@ def test_files_follow_the_published_schema(tmp_path):
     import jsonschema
 
     from sailforce.calibration import file as calfile
-    from sailforce.calibration.inertial import prior_term
+    from sailforce.fit.dynamic import prior_term
 
     schema = json.loads(files("sailforce.calibration").joinpath("calibration.schema.json").read_text())
     jsonschema.Draft202012Validator.check_schema(schema)

@@ -189,7 +189,7 @@ def test_stress_draws_a_figure(tmp_path):
     ("serial", ["estimate", "--calibration", "c/examples/calibration.json", "--serial", "loop://"], "serial"),
 ])  # fmt: skip
 def test_a_missing_extra_is_named(blocked, args, extra, tmp_path):
-    """Without an optional package, the command says which extra to install, in one line, exit 1 (issue 16, item 6)."""
+    """Without an optional package, the command says which extra to install, in one line, exit 1."""
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]

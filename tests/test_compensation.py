@@ -8,20 +8,20 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sailforce import Arm, SingularPoseError
-from sailforce.calibration.compensation import (
+from sailforce.estimate.estimator import estimate_force
+from sailforce.fit.matrix import fit_matrix_compensator
+from sailforce.report.results import SEED_REGRESSORS
+from sailforce.sensing.maps import (
     AmplitudePhaseCompensator,
     CompensationError,
     MatrixCompensator,
     TorqueScale,
     amplitude_phase,
-    estimate_force,
-    fit_matrix_compensator,
     rows_from_amplitude_phase,
     sinusoid_rows,
     torque_rows,
 )
-from sailforce.calibration.regressors import PolynomialFit, select_order
-from sailforce.report.results import SEED_REGRESSORS
+from sailforce.sensing.polynomial import PolynomialFit, select_order
 from sailforce.statics import end_effector_force, joint_torques
 
 #: Closed-form round trips in float64 lose a few ulps per operation; 1e-9
@@ -186,7 +186,7 @@ def test_matrix_compensator_refuses_undetermined_data():
 def test_matrix_compensator_rotation_invariance():
     """M = C(delta) J^T obeys the delta-only law M(th1, th2) = M(delta, 0) R(-th2) (docs/errata.md, Physics)."""
     comp = MatrixCompensator(Arm(), np.random.default_rng(3).normal(size=(3, 2, 2)), (0.2, 2.0))
-    from sailforce.calibration.compensation import rotation
+    from sailforce.sensing.maps import rotation
 
     theta2 = 0.7
     lhs = comp.sensing_matrix(1.5 + theta2, theta2)

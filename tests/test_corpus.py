@@ -355,7 +355,7 @@ def test_csv_to_parquet_refuses_text_in_a_numeric_column(tmp_path):
     """The first chunk makes the column numeric; a word far below is refused, naming its line, and nothing is written."""
     import sailforce.io.tables as tables
     from sailforce.calibration.file import Calibration
-    from sailforce.calibration.streaming import stream_estimate
+    from sailforce.stream.pipeline import stream_estimate
 
     lines = [b"theta1_deg,theta2_deg,load1,load2,gain\n"] + [b"90,0,1,1,0.5\n"] * 3000 + [b"90,0,1,1,high\n"]
     (tmp_path / "in.csv").write_bytes(b"".join(lines))

@@ -1,4 +1,4 @@
-"""sail design --sweep and --capacity-catalogue: the table, the refusals, the Pareto set, the ranking, Dask (issue 17)."""
+"""sail design --sweep and --capacity-catalogue: the table, the refusals, the Pareto set, the ranking, Dask."""
 
 from __future__ import annotations
 

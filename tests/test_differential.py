@@ -21,11 +21,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import sailforce.io.tables as tables
-from sailforce.calibration.estimator import INVALID, STATUS_NAMES
 from sailforce.calibration.file import Calibration
-from sailforce.calibration.streaming import estimate_lines, stream_estimate
+from sailforce.estimate.estimator import INVALID, STATUS_NAMES
 from sailforce.io.tables import READING_COLUMNS, read_chunks, read_line
 from sailforce.kinematics import sin_delta_from_trig
+from sailforce.stream.pipeline import estimate_lines, stream_estimate
 
 ROOT = Path(__file__).resolve().parents[1]
 CAL_PATH = ROOT / "c" / "examples" / "calibration.json"
@@ -139,8 +139,8 @@ def test_cli_file_and_stdin_give_the_same_bytes(tmp_path):
 def test_one_singularity_verdict_at_the_threshold():
     """Poses within 1e-12 of the threshold get one verdict from every entry point (there were 54 disagreements in 200,000)."""
     from sailforce import SINGULAR_SIN_DELTA, Arm
-    from sailforce.calibration.compensation import TorqueScale, estimate_force
-    from sailforce.calibration.estimator import SINGULAR
+    from sailforce.estimate.estimator import SINGULAR, estimate_force
+    from sailforce.sensing.maps import TorqueScale
     from sailforce.statics import end_effector_force, singular_poses
     from sailforce.sweep import check_not_singular
 

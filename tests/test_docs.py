@@ -1,4 +1,4 @@
-"""Every code example in README.md and docs/ runs, and the documentation site builds (issue 16, item 7).
+"""Every code example in README.md and docs/ runs, and the documentation site builds.
 
 How each fenced block counts (docs/index.md tells readers the same):
 

@@ -1,4 +1,4 @@
-"""Rigid-body dynamics of the parallelogram (issue 11): the cells' shears while the arm moves.
+"""Rigid-body dynamics of the parallelogram: the cells' shears while the arm moves.
 
 Layers: the static limit (V_i = T_i / l_i exactly); the written-out regressor
 against the Newton-Euler evaluation; an independent solve of all six bodies'

@@ -275,7 +275,7 @@ def test_one_member_transformation():
                                rtol=1e-12, atol=1e-9 * np.abs(k).max())  # fmt: skip
 
 
-# -- per-joint models (issue 12, item 1) -------------------------------------------------------------------
+# -- per-joint models -------------------------------------------------------------------
 
 
 def _signals(joints: Joints) -> np.ndarray:
@@ -310,7 +310,7 @@ def test_one_joint_spring_spans_pin_to_bonded_at_that_joint(joint):
     assert Joints("bonded", **{joint: Joint("spring", 1.0)}).label.count("bonded") == 2
 
 
-# --- the load cell's compliance models (issue 12) ---------------------------------------------------------------
+# --- the load cell's compliance models ---------------------------------------------------------------
 
 
 def test_the_flexibility_element_is_the_timoshenko_element_for_a_timoshenko_cantilever():

@@ -1,4 +1,4 @@
-"""Identification of physical parameters (issue 12): recovery, uncertainty, identifiability, the physics calibration."""
+"""Identification of physical parameters: recovery, uncertainty, identifiability, the physics calibration."""
 
 from __future__ import annotations
 
@@ -7,19 +7,19 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sailforce.calibration.physics import fit_physics
-from sailforce.identify import (
+from sailforce.fit.identify import (
     Identification,
     IdentifyError,
     ReadingsTarget,
     identify,
-    identify_table4,
     parameter,
     with_free_springs,
     with_parameter,
 )
+from sailforce.fit.physics import fit_physics
+from sailforce.paper.study import table4
+from sailforce.paper.table4_fit import identify_table4
 from sailforce.robot import Joint, Joints, Robot
-from sailforce.study import table4
 from sailforce.synthetic import NoiseModel, calibration_session
 
 #: Noise-free recovery: the fit's own tolerances (1e-12) leave far less than this.
@@ -145,7 +145,7 @@ def test_physics_on_pin_jointed_data_gives_the_pin_model():
 def test_auto_prefers_matrix_when_the_free_set_cannot_represent_the_data():
     """Joints that differ (one nearly rigid, one soft, one bonded) fitted with one shared spring: the
     physics model's cross-validated error is far above the matrix model's, and auto does not pick it."""
-    from sailforce.calibration.fit import fit_calibration
+    from sailforce.fit.calibration import fit_calibration
 
     truth = Robot(joints=Joints("spring", 50.0, P1=Joint("spring", 2e4), P2=Joint("spring", 300.0), P3=Joint("bonded")))
     t1, t2, fx, fy, counts, _ = calibration_session(truth)
@@ -156,8 +156,8 @@ def test_auto_prefers_matrix_when_the_free_set_cannot_represent_the_data():
 
 
 def test_the_physics_model_needs_the_robot():
-    from sailforce.calibration.compensation import CompensationError
-    from sailforce.calibration.fit import fit_calibration
+    from sailforce.fit.calibration import fit_calibration
+    from sailforce.sensing.maps import CompensationError
 
     t1, t2, fx, fy, counts, _ = calibration_session(Robot())
     with pytest.raises(CompensationError, match="needs the robot"):

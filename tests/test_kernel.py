@@ -8,9 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sailforce import SINGULAR_SIN_DELTA, Arm, kernel
-from sailforce.calibration.compensation import MatrixCompensator, TorqueScale, estimate_force
 from sailforce.calibration.file import Calibration
 from sailforce.errors import SailError
+from sailforce.estimate.estimator import estimate_force
+from sailforce.sensing.maps import MatrixCompensator, TorqueScale
 from sailforce.status import INVALID, SATURATED, SINGULAR
 
 compiled = pytest.importorskip("sailforce.kernel._compiled", reason="numba is not installed")
@@ -157,7 +158,7 @@ def test_sail_estimate_does_not_load_numba(tmp_path):
     import subprocess
     import sys
 
-    from sailforce.calibration.fit import fit_calibration
+    from sailforce.fit.calibration import fit_calibration
     from sailforce.robot import Robot
     from sailforce.synthetic import calibration_session
 

@@ -43,8 +43,8 @@ def _graph() -> dict[str, set[str]]:
 
 def test_imports_point_downward():
     graph = _graph()
-    assert {"sailforce.kernel", "sailforce.calibration.estimator", "sailforce.io.robotfile"} <= set(graph)
-    assert "sailforce.kernel" in graph["sailforce.calibration.estimator"]  # the graph sees relative imports
+    assert {"sailforce.kernel", "sailforce.estimate.estimator", "sailforce.io.robotfile"} <= set(graph)
+    assert "sailforce.kernel" in graph["sailforce.estimate.estimator"]  # the graph sees relative imports
     order, state = [], {}
 
     def visit(name: str, path: tuple[str, ...]) -> None:  # depth-first; a grey node met again is a cycle
@@ -62,6 +62,77 @@ def test_imports_point_downward():
     assert len(order) == len(graph)
 
 
+#: The house, from the ground up: a package or module imports only from the floors below its own (and,
+#: inside one package, from its own modules).  Every module of sailforce must be on exactly one floor.
+LAYERS: tuple[tuple[str, frozenset[str]], ...] = tuple((floor, frozenset(names.split())) for floor, names in (
+    ("errors for people", "errors"),
+    ("the ground: boundary checks, blocks, signals, extras, status codes, version, moved paths",
+     "_validate _blocks _signals _extras _moved _lazy _version status"),
+    ("kinematics (Eqs. 1, 4) and materials", "kinematics materials"),
+    ("the force kernel: J^T and the 2x2 solve (Eq. 8)", "kernel"),
+    ("statics (Eqs. 3, 6-8)", "statics"),
+    ("the arm and the load cell", "arm loadcell"),
+    ("the robot", "robot"),
+    ("files, tables, the robot file; the cluster", "io distributed"),
+    ("the frame model; the sensing maps", "fem sensing"),
+    ("simulated recordings and sweeps", "synthetic sweep"),
+    ("motion", "motion"),
+    ("run-time estimation", "estimate"),
+    ("the calibration: data and file", "calibration"),
+    ("fitting", "fit"),
+    ("the paper, design, the solid, the stream pipeline, C export", "paper design solid stream export_c"),
+    ("workflows", "workflows"),
+    ("the package's public names", "sailforce"),
+    ("live", "live"),
+    ("report", "report"),
+    ("the command line", "cli"),
+    ("python -m sailforce", "__main__"),
+))
+
+
+def _floor_of(name: str) -> tuple[int, str]:
+    """The floor of a module, and the unit (top-level package or module) that owns it."""
+    unit = name.split(".")[1] if name.count(".") else "sailforce"
+    floors = [i for i, (_, units) in enumerate(LAYERS) if unit in units]
+    assert len(floors) == 1, f"{name}: its unit {unit!r} is on {len(floors)} floors of LAYERS; put it on one"
+    return floors[0], unit
+
+
+def _stand_ins() -> set[str]:
+    """The old paths kept for one release (:mod:`sailforce._moved`)."""
+    graph = _graph()
+    return {name for name in graph if "_moved" in {t.rpartition(".")[2] for t in graph[name]} and name != "sailforce._moved"}
+
+
+def test_every_module_is_on_one_floor():
+    stand_ins = _stand_ins()
+    for name in _graph():
+        if name not in stand_ins:
+            _floor_of(name)
+
+
+def test_imports_go_down_the_floors():
+    """Lazy imports count; a stand-in for an old path is exempt, and nothing may import one."""
+    graph, stand_ins = _graph(), _stand_ins()
+    assert {"sailforce.calibration.compensation", "sailforce.study"} <= stand_ins  # the detector sees them
+    wrong = []
+    for name, targets in graph.items():
+        if name in stand_ins:
+            assert targets == {"sailforce._moved"}, f"{name} is a stand-in: it imports only sailforce._moved"
+            continue
+        floor, unit = _floor_of(name)
+        for target in targets:
+            assert target not in stand_ins, f"{name} imports {target}, an old path kept only for users: import the new one"
+            target_floor, target_unit = _floor_of(target)
+            if target_unit != unit and target_floor >= floor:
+                wrong.append(f"{name} (floor {floor}, {LAYERS[floor][0]}) imports {target} (floor {target_floor})")
+    assert not wrong, "imports that do not go down:\n" + "\n".join(sorted(wrong))
+
+
+def test_the_floors_are_ordered():
+    """The check is not blind: an import from kinematics to the CLI would go up."""
+    low, high = _floor_of("sailforce.kinematics"), _floor_of("sailforce.cli.estimate_cmd")
+    assert low[0] < high[0] and low[1] != high[1]  # so that kinematics -> cli would be reported
 def test_packages_import_downward():
     """Between the subpackages too: calibration builds on motion and io, never the reverse."""
     graph = _graph()

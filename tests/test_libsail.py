@@ -18,14 +18,14 @@ import pytest
 from click.testing import CliRunner
 
 from sailforce import SINGULAR_SIN_DELTA, Arm
-from sailforce.calibration.compensation import AmplitudePhaseCompensator, MatrixCompensator
-from sailforce.calibration.estimator import DELTA_RANGE_SLACK, STATUS_NAMES
-from sailforce.calibration.export_c import MAX_HALF_WINDOW, MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
 from sailforce.calibration.file import Calibration
-from sailforce.calibration.regressors import PolynomialFit
-from sailforce.calibration.streaming import estimate_lines
 from sailforce.cli import cli
+from sailforce.estimate.estimator import DELTA_RANGE_SLACK, STATUS_NAMES
+from sailforce.export_c import MAX_HALF_WINDOW, MAX_SECTIONS, MAX_TERMS, ExportError, calibration_header
 from sailforce.motion.differentiate import GAP_FACTOR
+from sailforce.sensing.maps import AmplitudePhaseCompensator, MatrixCompensator
+from sailforce.sensing.polynomial import PolynomialFit
+from sailforce.stream.pipeline import estimate_lines
 
 ROOT = Path(__file__).resolve().parents[1]
 HEADER = (ROOT / "c" / "include" / "sail.h").read_text()
@@ -42,7 +42,7 @@ def test_header_constants_match_python():
     assert float(_define("SAIL_DELTA_RANGE_SLACK")) == pytest.approx(DELTA_RANGE_SLACK, rel=1e-15)
     assert int(_define("SAIL_MAX_TERMS")) == MAX_TERMS
     assert int(_define("SAIL_MAX_SECTIONS")) == MAX_SECTIONS
-    statuses = re.search(r"enum \{\s*(SAIL_OK.*?)\};", HEADER, re.DOTALL).group(1)
+    statuses = re.search(r"enum sail_status \{\s*(SAIL_OK.*?)\};", HEADER, re.DOTALL).group(1)
     names = [n.lower().replace("_", "-") for n in re.findall(r"SAIL_([A-Z_]+),?\s*/\*", statuses)]
     assert names == list(STATUS_NAMES)
     assert int(_define("SAIL_MAX_HALF_WINDOW")) == MAX_HALF_WINDOW
@@ -156,7 +156,7 @@ def test_df2t_export_runs_cmsis_difference_equation_like_scipy():
     """<name>_lowpass_df2T, run through CMSIS-DSP's documented df2T recursion, filters as scipy's sosfilt does."""
     from scipy import signal
 
-    from sailforce.calibration.filters import LowPass
+    from sailforce.estimate.filters import LowPass
 
     lowpass = LowPass(10.0, 200.0, 4)
     header = calibration_header(_matrix_cal(1), "cal_m", lowpass=lowpass)

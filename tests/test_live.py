@@ -1,4 +1,4 @@
-"""``sail live`` and Lab Streaming Layer (issue 15): the pipeline against ``sail estimate``, the tare, the
+"""``sail live`` and Lab Streaming Layer: the pipeline against ``sail estimate``, the tare, the
 recorder, the page's state, the server's token and messages, LSL round trips, and the page in a real browser."""
 
 from __future__ import annotations
@@ -18,17 +18,17 @@ import pylsl
 import pytest
 from click.testing import CliRunner
 
-from sailforce.calibration.estimator import STATUS_NAMES
 from sailforce.calibration.file import Calibration
-from sailforce.calibration.streaming import stream_estimate
 from sailforce.calibration.tare import MIN_TARE_SAMPLES
 from sailforce.cli import cli
 from sailforce.errors import SailError
+from sailforce.estimate.estimator import STATUS_NAMES
 from sailforce.live.pipeline import LivePipeline, Rows
 from sailforce.live.recorder import Recorder
 from sailforce.live.sources import SIMULATED_COLUMNS, replay, simulated_arm
 from sailforce.live.state import HISTORY_S, HISTORY_STEP_S, LiveState
 from sailforce.robot import Robot
+from sailforce.stream.pipeline import stream_estimate
 
 #: A pose well inside the calibrated range (delta = 70 deg), and a singular one (delta = 0).
 POSE = (80.0, 10.0)
@@ -434,7 +434,7 @@ def test_page_in_chromium_shows_the_force_tares_records_and_flags_singular(cals,
             assert page.text_content("#status") == "ok"
             page.wait_for_timeout(2000)
             latency = latencies_ms(page)
-            assert latency.size > 30 and np.median(latency) <= 50.0, latency  # issue 15's target, at 1 kHz input
+            assert latency.size > 30 and np.median(latency) <= 50.0, latency  # the live page's target, at 1 kHz input
 
             page.click("#record")
             page.wait_for_function("document.getElementById('recording').textContent.startsWith('recording')")

@@ -1,4 +1,4 @@
-"""Force in motion (issue 11): trajectories, differentiation, identification of the dynamic term, its accuracy.
+"""Force in motion: trajectories, differentiation, identification of the dynamic term, its accuracy.
 
 The simulated session is the issue's: 0.3 m minimum-jerk reaches peaking at
 3 m/s^2 at the hand, 1 kHz, 16-bit encoders, 0.01 % cell noise, a 1 kg
@@ -10,10 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sailforce.calibration.estimator import MOTION_UNKNOWN, OK
 from sailforce.calibration.file import Calibration
-from sailforce.calibration.fit import fit_calibration
-from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term
+from sailforce.estimate.dynamic import estimate_moving
+from sailforce.estimate.estimator import MOTION_UNKNOWN, OK
+from sailforce.fit.calibration import fit_calibration
+from sailforce.fit.dynamic import fit_dynamic_term
 from sailforce.kinematics import forward
 from sailforce.motion.differentiate import Differentiator, MotionDataError, RateTracker, derivatives
 from sailforce.motion.dynamics import base_parameters, inertial_parameters, parameter_vector
@@ -22,7 +23,7 @@ from sailforce.robot import Handle, Plane, Robot
 from sailforce.synthetic import calibration_session
 
 ROBOT = Robot(handle=Handle(mass=1.0))
-#: Issue 11's targets.
+#: The targets of force in motion.
 FORCE_RMS_TARGET_N = 0.1
 BASE_PARAMETER_RTOL = 0.02
 
@@ -172,9 +173,9 @@ def test_offline_blocks_equal_the_tracker(session, dt):
     """The offline estimate computes each block's rates where it estimates it (RatePlan): the very numbers of
     the tracker's rates (one pass, as `sail estimate` streams them) fed to the estimator, across gaps, invalid
     angles and jittered steps, and across the estimator's block edges."""
-    from sailforce.calibration.estimator import BLOCK
-    from sailforce.calibration.estimator import estimate_moving as estimate_with_rates
-    from sailforce.calibration.inertial import motion_states
+    from sailforce.estimate.dynamic import motion_states
+    from sailforce.estimate.estimator import BLOCK
+    from sailforce.estimate.estimator import estimate_moving as estimate_with_rates
 
     _, cal, free, task = session
     fit = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1])
@@ -201,7 +202,7 @@ def test_offline_blocks_equal_the_tracker(session, dt):
 @pytest.mark.parametrize("threads", [2, 3])
 def test_threaded_blocks_equal_one_thread(session, threads):
     """The estimator's blocks run on threads for large inputs: bit for bit what one thread gives, static and moving."""
-    from sailforce.calibration import estimator
+    from sailforce.estimate import estimator
 
     _, cal, free, _ = session
     fit = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1])

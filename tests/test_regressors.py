@@ -10,11 +10,11 @@ from click.testing import CliRunner
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sailforce.calibration.regressors import RegressorError, adjusted_r_squared, fit_polynomial, select_order
 from sailforce.cli import cli
 from sailforce.io.files import TableError, read_numeric_csv
+from sailforce.paper.study import TABLE4_COLUMNS
 from sailforce.report.results import SEED_REGRESSORS, seed_table4
-from sailforce.study import TABLE4_COLUMNS
+from sailforce.sensing.polynomial import RegressorError, adjusted_r_squared, fit_polynomial, select_order
 
 #: Table 4 prints amplitudes and phases to 0.001: the entries carry up to this rounding error.
 TABLE4_ROUNDING = 0.0005

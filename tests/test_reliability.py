@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from sailforce import Arm
-from sailforce.calibration.export_c import calibration_header, comment_text
 from sailforce.calibration.file import TEXT_FIELDS, Calibration, CalibrationFileError, checksum
+from sailforce.export_c import calibration_header, comment_text
 from sailforce.io.files import OutputPathError, atomic_writer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -380,8 +380,9 @@ def _study_inputs(tmp_path, monkeypatch, *args):
     """What `sail reproduce` hands the study (its robot and reading), and the command's output."""
     from click.testing import CliRunner
 
-    from sailforce.cli import cli, reproduce_cmd
+    from sailforce.cli import cli
     from sailforce.errors import SailError
+    from sailforce.workflows import _reproduce
 
     seen = {}
 
@@ -389,7 +390,7 @@ def _study_inputs(tmp_path, monkeypatch, *args):
         seen.update(robot=robot, transduction=transduction)
         raise SailError("stopped after the study's inputs")
 
-    monkeypatch.setattr(reproduce_cmd, "run_study", study)
+    monkeypatch.setattr(_reproduce, "run_study", study)
     (tmp_path / "robot.toml").write_text(PER_JOINT_ROBOT)
     result = CliRunner().invoke(cli, ["reproduce", "-o", str(tmp_path / "out"), "--robot", str(tmp_path / "robot.toml"),
                                       "--no-seed-model", *args])  # fmt: skip
@@ -784,7 +785,7 @@ def test_absurd_robot_values_are_warned_about(tmp_path):
 
 
 def test_a_long_export_c_name_is_refused(tmp_path):
-    from sailforce.calibration.export_c import ExportError, calibration_header
+    from sailforce.export_c import ExportError, calibration_header
 
     cal = Calibration.load(CAL_PATH)
     with pytest.raises(ExportError, match="10,000 characters"):

@@ -158,7 +158,7 @@ def test_bad_structure_sections_are_refused(tmp_path, extra, message):
 
 
 def test_per_joint_tables_are_read_and_written(tmp_path):
-    """``[joints.P1]`` overrides ``[joints]`` at P1 only; the template writes it back (issue 12, item 1)."""
+    """``[joints.P1]`` overrides ``[joints]`` at P1 only; the template writes it back."""
     from sailforce.robot import Joint, Joints, Robot
 
     path = tmp_path / "r.toml"

@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from sailforce.io.robotkeys import with_keys
-from sailforce.robot import Robot
-from sailforce.seed import seed_table4
-from sailforce.seed_model import (
+from sailforce.paper.seed import seed_table4
+from sailforce.paper.seed_model import (
     Family,
     fit_families,
     implied_torque_amplitudes,
@@ -17,7 +16,8 @@ from sailforce.seed_model import (
     phase_pattern,
     pin_crosstalk,
 )
-from sailforce.study import run_study, table4
+from sailforce.paper.study import run_study, table4
+from sailforce.robot import Robot
 
 #: The cot-delta law is exact in the frame: only rounding remains.
 LAW_TOL = 1e-9

@@ -1,4 +1,4 @@
-"""The gmsh + CalculiX solid model (issue 13): physics, the frame comparison, the cache, the CLI, and a real Dask cluster.
+"""The gmsh + CalculiX solid model: physics, the frame comparison, the cache, the CLI, and a real Dask cluster.
 
 Coarse meshes keep this file to about a minute; the 2 mm runs are in `make bench` and the README.
 """
@@ -32,7 +32,7 @@ pytest.importorskip("gmsh")
 COARSE = 0.008  #: [m] element size for most tests: a pose in about a second
 FINER = 0.006  #: the other half of the convergence pair
 POSE = (math.radians(60.0), math.radians(20.0))
-#: The pin solid's torques equal J^T F to this (issue 13): ccx prints 7 significant digits per node.
+#: The pin solid's torques equal J^T F to this: ccx prints 7 significant digits per node.
 PIN_RTOL = 1e-5
 
 
@@ -89,7 +89,7 @@ def test_a_coarse_pair_of_meshes_agrees(pin, depth):
 
 
 def test_bonded_torques_and_phases_follow_the_frame(bonded):
-    """Bonded joints carry moment, so T differs from J^T F; the frame predicts it within 1 % and 1 deg (issue 13)."""
+    """Bonded joints carry moment, so T differs from J^T F; the frame predicts it within 1 % and 1 deg."""
     torques = compare(Robot().with_joints("bonded"), bonded)["torques"]
     assert np.allclose(torques["ratio"], 1.0, atol=0.01), torques
     assert np.max(np.abs(torques["phase_difference_deg"])) < 1.0

@@ -7,7 +7,8 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from sailforce import SINGULAR_SIN_DELTA, Arm, SingularPoseError, seed
+from sailforce import SINGULAR_SIN_DELTA, Arm, SingularPoseError
+from sailforce.paper import seed
 from sailforce.statics import cartesian, end_effector_force, joint_torques, polar
 
 from .conftest import angles, arms

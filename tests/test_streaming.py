@@ -18,10 +18,10 @@ from hypothesis import strategies as st
 from scipy import signal
 
 from sailforce.calibration.file import Calibration
-from sailforce.calibration.filters import FilterError, LowPass
-from sailforce.calibration.streaming import estimate_lines, stream_estimate
 from sailforce.cli import cli
+from sailforce.estimate.filters import FilterError, LowPass
 from sailforce.io.tables import READING_COLUMNS, read_chunks
+from sailforce.stream.pipeline import estimate_lines, stream_estimate
 
 from .test_calibration import calibration_set
 

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sailforce.calibration.compensation import torque_rows
 from sailforce.cli import cli
+from sailforce.paper.study import TABLE4_COLUMNS, Protocol, run_study
 from sailforce.robot import Robot
-from sailforce.study import TABLE4_COLUMNS, Protocol, run_study
+from sailforce.sensing.maps import torque_rows
 
 #: The frame solve is accurate to ~1e-12 relative (cond(K) ~1e7 times eps);
 #: quantities that physics makes exactly equal are compared at 1e-9.
@@ -122,7 +122,7 @@ def test_reproduce_writes_every_output(reproduced):
 
 def test_reproduce_seed_model_section(reproduced):
     """Every family fitted, each with parameters within its bounds, residuals row by row, the verdict stated."""
-    from sailforce.seed_model import FAMILIES, TARGET_PHASE_RMS_DEG, TARGET_SHAPE_RMS
+    from sailforce.paper.seed_model import FAMILIES, TARGET_PHASE_RMS_DEG, TARGET_SHAPE_RMS
 
     out, _ = reproduced
     data = json.loads((out / "seed_model.json").read_text())
@@ -197,7 +197,7 @@ def test_reproduce_rejects_bad_robot_file(tmp_path):
 
 
 def test_report_prose_follows_the_protocol():
-    """Change every grid of the protocol: the report's words and counts change with it (issue 16, item 4)."""
+    """Change every grid of the protocol: the report's words and counts change with it."""
     from sailforce.report.document import report_markdown
 
     protocol = Protocol(
@@ -219,8 +219,8 @@ def test_report_prose_follows_the_protocol():
 
 
 def test_models_have_ids_and_labels_apart(bonded):
+    from sailforce.paper.study import ModelId
     from sailforce.report.labels import MODEL_COLOURS, model_label
-    from sailforce.study import ModelId
 
     assert set(bonded.force_rmse) == {ModelId.UNCOMPENSATED, ModelId.SEED, ModelId.MATRIX}
     assert set(bonded.workspace.relative_error) == set(ModelId) == set(MODEL_COLOURS)
@@ -233,7 +233,7 @@ def test_study_result_and_calibration_are_built_by_keyword(bonded):
     from dataclasses import astuple
 
     from sailforce.calibration.file import Calibration
-    from sailforce.study import StudyResult
+    from sailforce.paper.study import StudyResult
 
     with pytest.raises(TypeError):
         StudyResult(*astuple(bonded)[:21])

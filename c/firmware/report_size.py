@@ -4,7 +4,7 @@ Usage: python3 c/firmware/report_size.py BUILD_DIR
 
 Flash = .text + .data.  The cost of sail_estimate with the default
 calibration is probe_estimate.elf minus probe_base.elf: the same program
-with and without the call (issue 6 target: at most 4 KiB).
+with and without the call (the target: at most 4 KiB).
 """
 
 import subprocess

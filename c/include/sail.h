@@ -49,9 +49,10 @@ typedef float sail_real;
 #define SAIL_VERSION_MAJOR 0
 #define SAIL_VERSION_MINOR 1
 
-/* Statuses, in sailforce.calibration.estimator's order.  When several apply, the first
- * of INVALID, SINGULAR, SATURATED, MOTION_UNKNOWN, EXTRAPOLATED wins. */
-enum {
+/* Statuses: the codes of sailforce.status, in its order.  When several apply, the first
+ * of INVALID, SINGULAR, SATURATED, MOTION_UNKNOWN, EXTRAPOLATED wins.  sail_force.status
+ * holds one as an int32_t, so that the struct's layout does not depend on the compiler. */
+enum sail_status {
     SAIL_OK,            /* estimate given */
     SAIL_SINGULAR,      /* |sin(theta1 - theta2)| < SAIL_SINGULAR_SIN_DELTA: fx, fy are NaN */
     SAIL_SATURATED,     /* |load - offset| beyond a cell's capacity: estimate given, not to be trusted */
@@ -62,7 +63,7 @@ enum {
 
 /* sin(2 deg): sailforce.SINGULAR_SIN_DELTA (src/sailforce/statics.py). */
 #define SAIL_SINGULAR_SIN_DELTA 0.03489949670250097
-/* 0.01 deg [rad]: sailforce.calibration.estimator.DELTA_RANGE_SLACK. */
+/* 0.01 deg [rad]: sailforce.estimate.estimator.DELTA_RANGE_SLACK. */
 #define SAIL_DELTA_RANGE_SLACK 1.7453292519943296e-4
 
 /* Polynomial terms per series: Chebyshev order <= 23 (matrix model; a physics
@@ -78,11 +79,11 @@ enum {
 /* The sensing model kinds that `sail calibrate` produces. */
 enum sail_model_kind {
     /* M = C(delta) J^T, C a Chebyshev series in x = (2 delta - (lo + hi)) / (hi - lo)
-     * (sailforce.calibration.compensation.MatrixCompensator). */
+     * (sailforce.sensing.MatrixCompensator). */
     SAIL_MODEL_MATRIX = 1,
     /* The seed paper's compensator: row i of M is R(-P_i) j_i / A_i, with j_i
      * row i of J^T and A_i, P_i power series in delta [deg], P_i in degrees
-     * (sailforce.calibration.compensation.AmplitudePhaseCompensator). */
+     * (sailforce.sensing.AmplitudePhaseCompensator). */
     SAIL_MODEL_SEED = 2
 };
 
@@ -118,9 +119,9 @@ typedef struct sail_calibration {
 } sail_calibration;
 
 typedef struct { sail_real theta1, theta2, load1, load2; } sail_reading; /* rad, raw units */
-typedef struct { sail_real fx, fy; int32_t status; } sail_force;         /* N */
+typedef struct { sail_real fx, fy; int32_t status; } sail_force;         /* N; status: enum sail_status */
 
-/* What sail_calibration_check and the init functions return. */
+/* What sail_calibration_check, the init functions and sail_tare_finish return. */
 enum sail_check {
     SAIL_CHECK_OK = 0,
     SAIL_CHECK_NULL,       /* a NULL pointer */
@@ -130,18 +131,19 @@ enum sail_check {
     SAIL_CHECK_GEOMETRY,   /* l2 or l3 not positive and finite */
     SAIL_CHECK_CAPACITY,   /* a capacity not positive, or an offset not finite */
     SAIL_CHECK_SECTIONS,   /* a low-pass with n_sections outside 1..SAIL_MAX_SECTIONS */
-    SAIL_CHECK_DYNAMICS    /* a dynamic term with half outside 1..SAIL_MAX_HALF_WINDOW, order outside
+    SAIL_CHECK_DYNAMICS,   /* a dynamic term with half outside 1..SAIL_MAX_HALF_WINDOW, order outside
                               0..SAIL_MAX_RATE_ORDER, or dt not positive */
+    SAIL_CHECK_TOO_FEW     /* sail_tare_finish: fewer than two finite readings seen */
 };
 
 /* SAIL_CHECK_OK, or the first problem found (enum sail_check).  sail_estimate reads the
  * per-model arrays up to the term counts: a calibration that fails here must not be used. */
-int32_t sail_calibration_check(const sail_calibration *cal);
+enum sail_check sail_calibration_check(const sail_calibration *cal);
 
 /* The force for one reading; returns out->status.  fx, fy are NaN when the
  * status is SAIL_SINGULAR or SAIL_INVALID (and for a calibration of unknown
  * kind, reported as SAIL_INVALID). */
-int sail_estimate(const sail_calibration *cal, const sail_reading *in, sail_force *out);
+enum sail_status sail_estimate(const sail_calibration *cal, const sail_reading *in, sail_force *out);
 
 /* sail_estimate over a block of n readings; returns how many are SAIL_OK. */
 size_t sail_estimate_block(const sail_calibration *cal, const sail_reading *in, sail_force *out, size_t n);
@@ -161,11 +163,12 @@ void sail_tare_init(sail_tare_state *state);
 /* Accumulate a block; readings with a non-finite load are skipped. */
 void sail_tare_process(sail_tare_state *state, const sail_reading *in, size_t n);
 /* Set cal->offset to the means and spread[i] to the sample standard
- * deviations (spread may be NULL).  Returns 0, or -1 (cal untouched) when
- * fewer than two readings were seen. */
-int sail_tare_finish(const sail_tare_state *state, sail_calibration *cal, sail_real spread[2]);
+ * deviations (spread may be NULL).  Returns SAIL_CHECK_OK, or (cal untouched)
+ * SAIL_CHECK_TOO_FEW when fewer than two readings were seen, SAIL_CHECK_NULL for a
+ * NULL state or calibration. */
+enum sail_check sail_tare_finish(const sail_tare_state *state, sail_calibration *cal, sail_real spread[2]);
 
-/* ---- low-pass filter on the loads (cf. sailforce.calibration.filters.LowPass) ----------------------- */
+/* ---- low-pass filter on the loads (cf. sailforce.estimate.LowPass) ----------------------- */
 
 /* A Butterworth low-pass as second-order sections (scipy.signal.butter,
  * output="sos"), generated by `sail export-c --lowpass-hz ... --sample-rate-hz ...`. */
@@ -182,7 +185,7 @@ typedef struct {
 } sail_lowpass_state;
 
 /* Returns SAIL_CHECK_OK, or SAIL_CHECK_NULL / SAIL_CHECK_SECTIONS (the state is then unusable). */
-int32_t sail_lowpass_init(sail_lowpass_state *state, const sail_lowpass *design);
+enum sail_check sail_lowpass_init(sail_lowpass_state *state, const sail_lowpass *design);
 /* Filter load1 and load2 of a block in place.  A reading with any
  * non-finite field is skipped (it neither enters nor advances the filter)
  * and its loads become NaN, so sail_estimate reports it SAIL_INVALID. */
@@ -229,9 +232,9 @@ typedef struct sail_dynamics {
  * out->status.  inertial (may be NULL) receives the subtracted load in raw units, NaN when
  * not computed.  Non-finite rates give SAIL_MOTION_UNKNOWN (unless a static status
  * outranks it) and fx, fy NaN. */
-int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, const sail_reading *in,
-                         sail_real omega1, sail_real omega2, sail_real alpha1, sail_real alpha2,
-                         sail_force *out, sail_real inertial[2]);
+enum sail_status sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, const sail_reading *in,
+                                      sail_real omega1, sail_real omega2, sail_real alpha1, sail_real alpha2,
+                                      sail_force *out, sail_real inertial[2]);
 
 /* The causal rate filter and delay line: each reading comes out `half` samples after it went
  * in, when its centred window is complete (the same numbers as sailforce's offline
@@ -259,7 +262,7 @@ typedef struct {
 } sail_motion_state;
 
 /* Returns SAIL_CHECK_OK, or SAIL_CHECK_NULL / SAIL_CHECK_DYNAMICS (the state is then unusable). */
-int32_t sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn);
+enum sail_check sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn);
 /* Push the reading taken at time t [s].  Returns 0 for the first `half` pushes; after that, 1,
  * with *out (and inertial, may be NULL) the estimate of the reading pushed `half` calls
  * earlier, returned in *held (may be NULL).  A step in t that is not positive or exceeds

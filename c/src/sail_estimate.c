@@ -5,7 +5,7 @@
 #include "sail.h"
 #include "sail_static.h"
 
-int sail_estimate(const sail_calibration *cal, const sail_reading *in, sail_force *out)
+enum sail_status sail_estimate(const sail_calibration *cal, const sail_reading *in, sail_force *out)
 {
     sail_real jt[2][2], m[2][2], trig[4];
     return sail_estimate_parts(cal, in, out, jt, m, trig);
@@ -35,7 +35,7 @@ static int terms_ok(int32_t n)
     return n >= 1 && n <= SAIL_MAX_TERMS;
 }
 
-int32_t sail_calibration_check(const sail_calibration *cal)
+enum sail_check sail_calibration_check(const sail_calibration *cal)
 {
     if (cal == NULL)
         return SAIL_CHECK_NULL;

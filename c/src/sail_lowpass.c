@@ -1,12 +1,12 @@
 /*
  * Butterworth low-pass on the loads, second-order sections in transposed
  * direct form II, as scipy.signal.sosfilt; state carried across blocks and
- * started at the first valid reading's steady state (sailforce.calibration.filters.LowPass).
+ * started at the first valid reading's steady state (sailforce.estimate.LowPass).
  */
 #include "sail.h"
 #include "sail_math.h"
 
-int32_t sail_lowpass_init(sail_lowpass_state *state, const sail_lowpass *design)
+enum sail_check sail_lowpass_init(sail_lowpass_state *state, const sail_lowpass *design)
 {
     int c, s;
     if (state == NULL || design == NULL)

@@ -40,7 +40,7 @@ static inline void sail_sincos(sail_real x, sail_real *s, sail_real *c)
 /*
  * sin and cos in float without libm's large-argument reduction, which alone
  * costs 3.3 KB of Cortex-M flash (newlib's __kernel_rem_pio2f and its
- * 2/pi table): a measured need (issue 6: 4 KiB for sail_estimate).
+ * 2/pi table): a measured need (4 KiB for sail_estimate).
  *
  * x = k pi/2 + r with |r| <= pi/4, by Cody and Waite's three-part pi/2
  * (P1 and P2 have few significant bits, so k P1 and k P2 are exact for

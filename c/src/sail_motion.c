@@ -1,6 +1,6 @@
 /*
  * Force in motion: the dynamic term and the causal rate filter.  Mirrors
- * sailforce.calibration.estimator.estimate_moving (the force) and
+ * sailforce.estimate.estimate_moving (the force) and
  * sailforce.motion.differentiate.RateTracker fed one reading at a time (the rates):
  * see sail.h and docs/dynamics.md.
  */
@@ -51,7 +51,7 @@ static SAIL_ALWAYS_INLINE int estimate_moving(const sail_calibration *cal, const
     return status;
 }
 
-int sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, const sail_reading *in,
+enum sail_status sail_estimate_moving(const sail_calibration *cal, const sail_dynamics *dyn, const sail_reading *in,
                          sail_real omega1, sail_real omega2, sail_real alpha1, sail_real alpha2,
                          sail_force *out, sail_real inertial[2])
 {
@@ -94,7 +94,7 @@ static void binomial_kernel(const double b[SAIL_MAX_RATE_ORDER + 1], int half, d
     }
 }
 
-int32_t sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn)
+enum sail_check sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn)
 {
     int i, k;
     if (state == NULL || dyn == NULL)

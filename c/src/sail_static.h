@@ -1,7 +1,7 @@
 /*
  * Internal: the static estimate, solve M(theta1, theta2) F = s for the end-effector force F,
- * with s the offset-free load-cell readings.  Mirrors sailforce.calibration.estimator.estimate and
- * sailforce.calibration.compensation (see sail.h).  A header so that both entry points, sail_estimate
+ * with s the offset-free load-cell readings.  Mirrors sailforce.estimate.estimate and
+ * sailforce.sensing (see sail.h).  A header so that both entry points, sail_estimate
  * (sail_estimate.c) and sail_motion_step (sail_motion.c), inline it into their hot path.
  */
 #ifndef SAIL_STATIC_H

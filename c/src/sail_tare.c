@@ -27,15 +27,17 @@ void sail_tare_process(sail_tare_state *state, const sail_reading *in, size_t n)
     }
 }
 
-int sail_tare_finish(const sail_tare_state *state, sail_calibration *cal, sail_real spread[2])
+enum sail_check sail_tare_finish(const sail_tare_state *state, sail_calibration *cal, sail_real spread[2])
 {
     int i;
+    if (!state || !cal)
+        return SAIL_CHECK_NULL;
     if (state->count < 2)
-        return -1;
+        return SAIL_CHECK_TOO_FEW;
     for (i = 0; i < 2; i++) {
         cal->offset[i] = (sail_real)state->mean[i];
         if (spread)
             spread[i] = (sail_real)sqrt(state->m2[i] / (double)(state->count - 1));
     }
-    return 0;
+    return SAIL_CHECK_OK;
 }

@@ -7,7 +7,7 @@
 
 #include "sail.h"
 
-/* Agreement with the Python toolkit (issue 6): 1e-5 relative in float, 1e-12 in double. */
+/* Agreement with the Python toolkit: 1e-5 relative in float, 1e-12 in double. */
 #ifdef SAIL_DOUBLE
 #define SAIL_TEST_RTOL 1e-12
 #else

@@ -1,4 +1,4 @@
-"""Shared test vectors for libsail, made by the Python toolkit (issue 6).
+"""Shared test vectors for libsail, made by the Python toolkit.
 
 Usage: ``python c/tests/make_vectors.py OUTDIR``
 
@@ -18,10 +18,10 @@ calibrate --free-motion`` and ``sail export-c --sample-rate-hz 1000``
 (``cal_motion.h``, ``sail_cal_motion`` and ``sail_cal_motion_dynamics``),
 and writes ``motion.csv``: a task session with a gap, a step back in time,
 an invalid angle, an invalid load and saturated readings, and what
-:func:`sailforce.calibration.inertial.estimate_moving` returns for each row.
+:func:`sailforce.estimate.dynamic.estimate_moving` returns for each row.
 
 It also writes ``lowpass.csv``, a reading sequence with invalid rows and the
-loads :class:`sailforce.calibration.filters.LowPass` makes of it, for the filter exported
+loads :class:`sailforce.estimate.filters.LowPass` makes of it, for the filter exported
 with the matrix calibration (``sail_cal_matrix_lowpass``).
 
 Readings keep clear of every status threshold (relative margins of 1e-3 or
@@ -38,9 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sailforce.calibration.estimator import DELTA_RANGE_SLACK
 from sailforce.calibration.file import Calibration
-from sailforce.calibration.filters import LowPass
+from sailforce.estimate.estimator import DELTA_RANGE_SLACK
+from sailforce.estimate.filters import LowPass
 from sailforce.robot import Robot
 from sailforce.statics import SINGULAR_SIN_DELTA
 from sailforce.synthetic import calibration_session
@@ -126,7 +126,7 @@ def _motion_vectors(outdir: Path) -> None:
           str(outdir / "rig_free.csv"), "-o", str(outdir / "cal_motion.json"))  # fmt: skip
     _sail("export-c", str(outdir / "cal_motion.json"), "-o", str(outdir / "cal_motion.h"), "--name", "sail_cal_motion",
           "--sample-rate-hz", str(MOTION_RATE_HZ))  # fmt: skip
-    from sailforce.calibration.inertial import estimate_moving
+    from sailforce.estimate.dynamic import estimate_moving
 
     cal = Calibration.load(outdir / "cal_motion.json")
     task = np.genfromtxt(outdir / "rig_task.csv", delimiter=",", names=True)

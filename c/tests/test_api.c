@@ -177,7 +177,7 @@ static void test_tare(void)
     sail_real spread[2];
     int i;
     sail_tare_init(&tare);
-    CHECK(sail_tare_finish(&tare, &cal, spread) == -1 && cal.offset[0] == 100, "no readings: offsets kept");
+    CHECK(sail_tare_finish(&tare, &cal, spread) == SAIL_CHECK_TOO_FEW && cal.offset[0] == 100, "no readings: offsets kept");
     for (i = 0; i < 12; i++) {
         r[i].theta1 = r[i].theta2 = 0;
         r[i].load1 = (sail_real)(1000 + i);  /* 1000..1009 valid: mean 1004.5, sample std sqrt(55/6) */
@@ -188,7 +188,9 @@ static void test_tare(void)
     sail_tare_process(&tare, r, 5);
     sail_tare_process(&tare, r + 5, 7);
     CHECK(tare.count == 10, "count %lu", tare.count);
-    CHECK(sail_tare_finish(&tare, &cal, spread) == 0, "finish");
+    CHECK(sail_tare_finish(&tare, &cal, spread) == SAIL_CHECK_OK, "finish");
+    CHECK(sail_tare_finish(NULL, &cal, spread) == SAIL_CHECK_NULL && sail_tare_finish(&tare, NULL, spread) == SAIL_CHECK_NULL,
+          "NULL state or calibration");
     CHECK_CLOSE(cal.offset[0], 1004.5, 1004.5, SAIL_TEST_RTOL);
     CHECK_CLOSE(cal.offset[1], -9.0, 9.0, SAIL_TEST_RTOL);
     CHECK_CLOSE(spread[0], sqrt(55.0 / 6.0), 3.0, SAIL_TEST_RTOL);

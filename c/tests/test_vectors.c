@@ -1,8 +1,8 @@
 /*
  * libsail against the Python toolkit's shared test vectors (c/tests/make_vectors.py):
  *   test_vectors matrix|seed VECTORS.csv   sail_estimate vs Calibration.estimate
- *   test_vectors lowpass LOWPASS.csv        sail_lowpass_process vs sailforce.calibration.filters.LowPass
- *   test_vectors motion MOTION.csv          sail_motion_step/flush vs sailforce.calibration.inertial.estimate_moving
+ *   test_vectors lowpass LOWPASS.csv        sail_lowpass_process vs sailforce.estimate.LowPass
+ *   test_vectors motion MOTION.csv          sail_motion_step/flush vs sailforce.estimate.estimate_moving
  * Statuses must be identical; forces agree norm-wise, |dF| <= SAIL_TEST_RTOL |F|.
  */
 #include <stdio.h>

@@ -17,30 +17,35 @@ Conventions
 (3.0, -4.0)
 """
 
-from importlib.metadata import PackageNotFoundError, version
+from ._lazy import lazy_exports
+from ._version import __version__
 
-from .arm import Arm
-from .errors import (
-    GeometryError,
-    RobotFileError,
-    SailError,
-    SingularPoseError,
-    UnreachablePointError,
-)
-from .statics import SINGULAR_SIN_DELTA
+_EXPORTS = {
+    "arm": ("Arm",),
+    "robot": ("Handle", "Joint", "Joints", "LinkBodies", "LinkBody", "Motors", "Plane", "Robot"),
+    "loadcell": ("LoadCell",),
+    "materials": ("Material", "RectangularSection"),
+    "kinematics": ("forward", "inverse", "jacobian", "joint_positions", "sin_delta", "workspace"),
+    "statics": ("SINGULAR_SIN_DELTA", "ForceResult", "cartesian", "end_effector_force", "joint_torques", "polar"),
+    "status": ("EXTRAPOLATED", "INVALID", "MOTION_UNKNOWN", "OK", "SATURATED", "SINGULAR", "STATUS_NAMES"),
+    "errors": ("CalibrationFileError", "ClusterError", "CommandError", "CompensationError", "DesignError", "DynamicsError",
+               "ExportError", "FilterError", "GeometryError", "IdentifyError", "InputError", "MeshError", "MissingExtraError",
+               "MotionDataError", "NonFiniteInputError", "OutputPathError", "RecordingError", "RegressorError", "RobotFileError",
+               "SailError", "ShapeError", "SingularPoseError", "SolverError", "SpecError", "TableError", "ToolError",
+               "UnreachablePointError"),
+    "synthetic": ("NoiseModel", "calibration_session", "recording"),
+    "calibration": ("Calibration", "Tare", "tare"),
+    "estimate": ("DynamicTerm", "LowPass", "estimate", "estimate_force", "estimate_moving"),
+    "fit": ("fit_calibration", "fit_dynamic_term", "fit_physics", "identify", "prior_term"),
+    "workflows": ("calibrate", "calibration_run", "check_solid", "identify_robot", "reproduce"),
+    "paper": ("ModelId", "Protocol", "identify_table4", "run_study", "seed_table4"),
+    "design": ("GridSpec", "design_grid", "parse_sweep", "run_design", "run_sweep"),
+    "stream": ("estimate_lines", "stream_estimate"),
+    "motion": ("Differentiator", "base_parameters", "inertial_parameters", "parameter_vector", "reaching", "record"),
+    "fem": ("build_model", "simulate", "simulate_model"),
+    "io": ("load_robot_file", "read_all"),
+}
 
-try:
-    __version__ = version("sailforce")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0+unknown"
-
-__all__ = [
-    "Arm",
-    "GeometryError",
-    "RobotFileError",
-    "SailError",
-    "SingularPoseError",
-    "UnreachablePointError",
-    "SINGULAR_SIN_DELTA",
-    "__version__",
-]
+#: The objects and workflows a user needs; each is imported on first use (``from sailforce import calibrate``).
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__all__ = [*__all__, "__version__"]

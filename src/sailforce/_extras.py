@@ -5,11 +5,7 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from .errors import SailError
-
-
-class MissingExtraError(SailError):
-    """An optional dependency that a feature needs is not installed."""
+from .errors import MissingExtraError
 
 
 def require(module: str, extra: str, feature: str) -> ModuleType:

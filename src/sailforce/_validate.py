@@ -46,12 +46,4 @@ def _all_finite(array: np.ndarray) -> bool:
     return bool(np.all(np.isfinite(array)))
 
 
-def positive_finite(name: str, value: object) -> float:
-    """Return ``value`` as a float, or raise if it is not a positive finite number."""
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name}: expected a positive number, got {value!r}") from None
-    if not np.isfinite(number) or number <= 0.0:
-        raise ShapeError(f"{name}: expected a positive finite number, got {number!r}")
-    return number
+

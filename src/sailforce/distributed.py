@@ -24,16 +24,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from ._signals import signals_deferred
-from .errors import SailError
+from .errors import ClusterError
 
 #: Times Dask retries a task that raised, before its error is reported.
 DEFAULT_RETRIES = 2
 #: Seconds to wait for an existing scheduler to answer.
 CONNECT_TIMEOUT_S = 10
 
-
-class ClusterError(SailError):
-    """Dask is missing, or its scheduler cannot be reached."""
 
 
 @dataclass(frozen=True)

@@ -64,7 +64,7 @@ def joint_positions(arm: Links, theta1, theta2) -> dict[str, np.ndarray]:
         "P1": p1,
         "P2": p2,
         "P3": p1 + p2,
-        "A": np.stack([arm.l2 * c2 + arm.l3 * c1, arm.l2 * s2 + arm.l3 * s1], axis=-1),
+        "A": np.stack(_forward(arm, c1, s1, c2, s2), axis=-1),
     }
 
 
@@ -79,6 +79,11 @@ def forward(arm: Links, theta1, theta2) -> tuple[np.ndarray, np.ndarray]:
     theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
     c1, s1 = _unit(theta1)
     c2, s2 = _unit(theta2)
+    return _forward(arm, c1, s1, c2, s2)
+
+
+def _forward(arm: Links, c1, s1, c2, s2):
+    """A = l2 (cos th2, sin th2) + l3 (cos th1, sin th1) (seed Eq. 1), from the sines and cosines: the one place it is written."""
     return arm.l2 * c2 + arm.l3 * c1, arm.l2 * s2 + arm.l3 * s1
 
 
@@ -91,9 +96,19 @@ def jacobian(arm: Links, theta1, theta2) -> np.ndarray:
     theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
     c1, s1 = _unit(theta1)
     c2, s2 = _unit(theta2)
-    row_x = np.stack([-arm.l3 * s1, -arm.l2 * s2], axis=-1)
-    row_y = np.stack([arm.l3 * c1, arm.l2 * c2], axis=-1)
-    return np.stack([row_x, row_y], axis=-2)
+    jt00, jt01, jt10, jt11 = transposed_jacobian_entries(arm.l2, arm.l3, s1, c1, s2, c2)
+    return np.stack([np.stack([jt00, jt10], axis=-1), np.stack([jt01, jt11], axis=-1)], axis=-2)
+
+
+def transposed_jacobian_entries(l2: float, l3: float, sin1, cos1, sin2, cos2):
+    """J^T as its entries ``(m00, m01, m10, m11)``, from the joint angles' sines and cosines (seed Eqs. 3, 4, 7).
+
+    Rows ``l3 (-sin th1, cos th1)`` and ``l2 (-sin th2, cos th2)``: the torques
+    are ``T = J^T F``.  The one place sailforce writes J^T (:func:`jacobian` is
+    its transpose; :mod:`sailforce.kernel` compiles this same function with
+    numba); plain arithmetic, so it takes scalars or arrays alike.
+    """
+    return (-l3 * sin1, l3 * cos1, -l2 * sin2, l2 * cos2)
 
 
 #: Poses with |sin(theta1 - theta2)| below this are refused by the force

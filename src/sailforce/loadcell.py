@@ -17,7 +17,7 @@ cantilever theory gives delta = F L^3 / (3 E I) + F L / (kappa G A), so
 with kappa G A from the solid block (its shear term is ~0.4 % of delta_cap for
 the defaults).  Axial and shear rigidity come from the block.
 
-**Compliance models** (``compliance``, issue 12).  What the frame sees of the
+**Compliance models** (``compliance``).  What the frame sees of the
 cell in bending is its 2x2 cantilever flexibility: with the near face clamped,
 a shear V and a moment M at the far face move it by
 

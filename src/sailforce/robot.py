@@ -22,7 +22,7 @@ MOTOR_MODELS = ("locked", "gearbox")
 
 #: The passive joints, in the order the frame model lists them.
 JOINT_NAMES = ("P1", "P2", "P3")
-#: The four links, each of which may have its own section and material (issue 17).
+#: The four links, each of which may have its own section and material.
 LINK_NAMES = ("l1", "l2", "l3", "l4")
 
 
@@ -101,7 +101,7 @@ class Motors:
 
 @dataclass(frozen=True)
 class Handle:
-    """What the patient holds at A: a point mass on l3 (issue 11)."""
+    """What the patient holds at A: a point mass on l3."""
 
     mass: float = 0.0  #: [kg]
     position: float = 1.0  #: along l3 from P2, as a fraction of l3 (1 = at A)
@@ -115,7 +115,7 @@ class Handle:
 
 @dataclass(frozen=True)
 class Plane:
-    """The plane the arm moves in: tilted from horizontal, gravity has a component in it (issue 11)."""
+    """The plane the arm moves in: tilted from horizontal, gravity has a component in it."""
 
     tilt_deg: float = 0.0  #: [deg] angle between the arm's plane and the horizontal
     axis_deg: float = -90.0  #: [deg] direction in the plane, CCW from +x, in which that component points

@@ -17,24 +17,17 @@ and the polar form is |F| = hypot(Fx, Fy), phi = atan2(Fy, Fx).
 
 from __future__ import annotations
 
-import os
-from typing import Literal, overload
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from . import kernel
-from ._blocks import for_each_block
+from ._blocks import BLOCK, THREADS, for_each_block
 from ._validate import as_float_arrays
-from .errors import SingularPoseError
-from .kinematics import SINGULAR_SIN_DELTA, Links, is_singular, sin_delta, singular_poses  # noqa: F401 (re-exported)
-
-#: Poses per block in :func:`end_effector_force`: every temporary of a block
-#: stays in L2 cache.  Measured on 10^7 poses (numpy back-end): ~12 M poses/s
-#: blocked against 3.5-9 M poses/s unblocked, where fresh 80 MB temporaries page-fault.
-BLOCK = 1 << 15
-
-#: Threads for inputs of several blocks (the kernel releases the GIL).
-THREADS = min(4, os.cpu_count() or 1)
+from .errors import InputError, SingularPoseError
+from .kinematics import SINGULAR_SIN_DELTA, Links, is_singular, sin_delta, singular_poses, transposed_jacobian_entries  # noqa: F401 (re-exported)
 
 
 def joint_torques(arm: Links, theta1, theta2, fx, fy) -> tuple[np.ndarray, np.ndarray]:
@@ -49,19 +42,55 @@ def joint_torques(arm: Links, theta1, theta2, fx, fy) -> tuple[np.ndarray, np.nd
     (0.0, 3.0)
     """
     theta1, theta2, fx, fy = as_float_arrays(theta1=theta1, theta2=theta2, fx=fx, fy=fy)
-    c1, s1 = np.cos(theta1), np.sin(theta1)
-    c2, s2 = np.cos(theta2), np.sin(theta2)
-    t1 = arm.l3 * (c1 * fy - s1 * fx)
-    t2 = arm.l2 * (c2 * fy - s2 * fx)
-    return t1, t2
+    m00, m01, m10, m11 = transposed_jacobian_entries(arm.l2, arm.l3, np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2))
+    return m00 * fx + m01 * fy, m10 * fx + m11 * fy
 
 
-@overload
-def end_effector_force(arm: Links, theta1, theta2, t1, t2, *, on_singular: Literal["raise"] = ...,
-                       min_sin_delta: float = ...) -> tuple[np.ndarray, np.ndarray]: ...  # fmt: skip
-@overload
-def end_effector_force(arm: Links, theta1, theta2, t1, t2, *, on_singular: Literal["mask"],
-                       min_sin_delta: float = ...) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...  # fmt: skip
+#: What ``on_singular`` may be: raise :class:`SingularPoseError`, or mask the singular poses with NaN.
+ON_SINGULAR = ("raise", "mask")
+
+
+def check_on_singular(on_singular: str) -> None:
+    """Refuse an ``on_singular`` that is not one of :data:`ON_SINGULAR`."""
+    if on_singular not in ON_SINGULAR:
+        raise InputError(f"on_singular: expected 'raise' or 'mask', got {on_singular!r}")
+
+
+@dataclass(frozen=True)
+class ForceResult:
+    """An end-effector force at each pose: ``fx``, ``fy`` [N] and the boolean mask ``singular``.
+
+    What :func:`end_effector_force` and :func:`sailforce.estimate.estimate_force`
+    return, whatever ``on_singular``.  It unpacks as those functions' tuples
+    did, so that ``fx, fy = ...`` (``on_singular="raise"``) and ``fx, fy,
+    singular = ...`` (``"mask"``) keep working: ``masked`` says which.
+    """
+
+    fx: np.ndarray
+    fy: np.ndarray
+    singular: np.ndarray
+    masked: bool = False  #: unpacks as (fx, fy, singular) when True, else as (fx, fy)
+
+    def _values(self) -> tuple[np.ndarray, ...]:
+        return (self.fx, self.fy, self.singular) if self.masked else (self.fx, self.fy)
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        return iter(self._values())
+
+    def __len__(self) -> int:
+        return len(self._values())
+
+    def __getitem__(self, index):
+        return self._values()[index]
+
+
+def force_result(theta1, theta2, fx, fy, singular, on_singular: str, min_sin_delta: float) -> ForceResult:
+    """The result of a force inversion: raise for singular poses (``"raise"``), or mask them (``"mask"``)."""
+    if on_singular == "raise" and np.any(singular):
+        raise_singular_pose(theta1, theta2, np.asarray(singular), min_sin_delta)
+    return ForceResult(fx, fy, singular, masked=on_singular == "mask")
+
+
 def end_effector_force(
     arm: Links,
     theta1,
@@ -71,7 +100,7 @@ def end_effector_force(
     *,
     on_singular: Literal["raise", "mask"] = "raise",
     min_sin_delta: float = SINGULAR_SIN_DELTA,
-):
+) -> ForceResult:
     """End-effector force F = (J^T)^-1 T [N] from joint torques (t1, t2) [N m].
 
     Uses the corrected inverse (module docstring, docs/errata.md), not the seed's
@@ -79,17 +108,19 @@ def end_effector_force(
     |sin(theta1 - theta2)| < ``min_sin_delta``:
 
     - ``on_singular="raise"`` (default) raises :class:`SingularPoseError`
-      naming the first such pose and the threshold, and the result is ``(fx, fy)``;
-    - ``on_singular="mask"`` returns ``(fx, fy, singular)`` with NaN in fx and
-      fy where the boolean mask ``singular`` is True.
+      naming the first such pose and the threshold;
+    - ``on_singular="mask"`` gives NaN in fx and fy where the boolean mask
+      ``singular`` is True.
+
+    The result is a :class:`ForceResult` (``.fx``, ``.fy``, ``.singular``),
+    which unpacks as ``fx, fy`` or, masked, as ``fx, fy, singular``.
 
     >>> from sailforce import Arm
     >>> fx, fy = end_effector_force(Arm(), np.pi / 2, 0.0, 0.0, 3.0)
     >>> round(float(fx), 12), round(float(fy), 12)
     (0.0, 10.0)
     """
-    if on_singular not in ("raise", "mask"):
-        raise ValueError(f"on_singular: expected 'raise' or 'mask', got {on_singular!r}")
+    check_on_singular(on_singular)
     theta1, theta2, t1, t2 = as_float_arrays(theta1=theta1, theta2=theta2, t1=t1, t2=t2)
     shape = theta1.shape
     flat = [np.ravel(a) for a in (theta1, theta2, t1, t2)]
@@ -102,26 +133,31 @@ def end_effector_force(
         fx[block], fy[block], singular[block] = kernel.force_from_torques(arm.l2, arm.l3, th1, th2, tq1, tq2, min_sin_delta)
 
     for_each_block(theta1.size, BLOCK, THREADS, run)
-    if on_singular == "raise" and singular.any():
-        raise_singular_pose(theta1, theta2, singular.reshape(shape), min_sin_delta)
-    fx, fy = fx.reshape(shape)[()], fy.reshape(shape)[()]
-    if on_singular == "raise":
-        return fx, fy
-    return fx, fy, singular.reshape(shape)[()]
+    return force_result(theta1, theta2, fx.reshape(shape)[()], fy.reshape(shape)[()], singular.reshape(shape)[()], on_singular,
+                        min_sin_delta)  # fmt: skip
 
 
-def raise_singular_pose(theta1, theta2, singular, min_sin_delta) -> None:
-    """Raise :class:`SingularPoseError` naming the first pose flagged in ``singular`` and the threshold."""
+#: What a singular-pose error suggests to a Python caller.
+MASK_HINT = " Pass on_singular='mask' to get NaN and a mask instead."
+
+
+def singular_pose_error(theta1, theta2, singular, min_sin_delta, hint: str = MASK_HINT) -> SingularPoseError:
+    """The :class:`SingularPoseError` naming the first pose flagged in ``singular`` and the threshold: the one wording."""
+    theta1, theta2, singular = np.broadcast_arrays(np.asarray(theta1, float), np.asarray(theta2, float), np.asarray(singular))
     idx = tuple(int(i) for i in np.argwhere(singular)[0]) if singular.ndim else ()
     where = f" (first at index {idx})" if idx else ""
     sd = sin_delta(theta1[idx], theta2[idx])
-    raise SingularPoseError(
+    return SingularPoseError(
         f"{int(np.count_nonzero(singular))} singular pose(s){where}: "
         f"theta1 = {np.degrees(theta1[idx]):.6g} deg, theta2 = {np.degrees(theta2[idx]):.6g} deg "
         f"gives |sin(theta1 - theta2)| = {abs(sd):.3g}, below the threshold "
-        f"{min_sin_delta:.3g}; the parallelogram is collapsed there. "
-        f"Pass on_singular='mask' to get NaN and a mask instead."
+        f"{min_sin_delta:.3g}; the parallelogram is collapsed there.{hint}"
     )
+
+
+def raise_singular_pose(theta1, theta2, singular, min_sin_delta) -> None:
+    """Raise :func:`singular_pose_error`."""
+    raise singular_pose_error(theta1, theta2, singular, min_sin_delta)
 
 
 def polar(fx, fy) -> tuple[np.ndarray, np.ndarray]:

@@ -18,5 +18,12 @@ MOTION_UNKNOWN, EXTRAPOLATED wins.
 
 from __future__ import annotations
 
+import numpy as np
+
 OK, SINGULAR, SATURATED, EXTRAPOLATED, INVALID, MOTION_UNKNOWN = range(6)
 STATUS_NAMES = ("ok", "singular", "saturated", "extrapolated", "invalid", "motion-unknown")
+
+
+def count_statuses(status) -> np.ndarray:
+    """How many readings have each status code, ``(len(STATUS_NAMES),)`` in the codes' order."""
+    return np.bincount(np.ravel(status).astype(np.intp), minlength=len(STATUS_NAMES))

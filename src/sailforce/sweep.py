@@ -11,9 +11,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import SailError, SingularPoseError
+from .errors import SpecError
 from .fem.response import ArmResponse, member_stresses
-from .statics import SINGULAR_SIN_DELTA, singular_poses
+from .statics import SINGULAR_SIN_DELTA, singular_pose_error, singular_poses
 
 #: Slack, in steps, when deciding whether ``stop`` is reached in
 #: ``start:stop:step``: 1e-9 of a step absorbs decimal rounding such as
@@ -25,9 +25,6 @@ MAX_SPEC_SAMPLES = 10_000_000
 
 COLUMNS = ("theta1_deg", "theta2_deg", "phi_deg", "fx_N", "fy_N", "load1", "load2", "t1_Nm", "t2_Nm")
 
-
-class SpecError(SailError):
-    """A sweep specification that cannot be read."""
 
 
 def parse_spec(text: str, name: str = "value") -> np.ndarray:
@@ -74,12 +71,7 @@ def check_not_singular(theta1, theta2, min_sin_delta: float = SINGULAR_SIN_DELTA
     """Refuse collapsed poses, where the linkage is (nearly) a mechanism."""
     bad = singular_poses(theta1, theta2, min_sin_delta)
     if np.any(bad):
-        i = int(np.argmax(bad))
-        t1, t2 = np.degrees(np.ravel(theta1)[i]), np.degrees(np.ravel(theta2)[i])
-        raise SingularPoseError(
-            f"{int(bad.sum())} singular pose(s) with |sin(θ1 − θ2)| < {min_sin_delta:.3g}, the first at "
-            f"θ1 = {t1:g}°, θ2 = {t2:g}°: the parallelogram is collapsed there"
-        )
+        raise singular_pose_error(theta1, theta2, bad, min_sin_delta, hint="")
 
 
 def sweep_rows(response: ArmResponse, phi, force: float, transduction: str) -> dict[str, np.ndarray]:

@@ -1,16 +1,14 @@
-"""Calibrating a SAIL arm and estimating force with the result.
+"""The calibration: a frozen record of one arm's sensing map, offsets and limits, its JSON file, and tare.
 
-- :mod:`.compensation`: the sensing models M(theta1, theta2) (torque scale,
-  the seed's amplitude/phase compensator, the Chebyshev matrix model) and
-  the matrix model's fit;
-- :mod:`.regressors`: the seed's polynomial regressors (Table 4);
-- :mod:`.fit`: :func:`fit_calibration`, a model and offsets from calibration data;
-- :mod:`.file`: :class:`Calibration`, the frozen result, and its JSON file
-  format (``calibration.schema.json``);
-- :mod:`.estimator`: the run-time estimate, one status per reading;
-- :mod:`.inertial` and :mod:`.motion_stream`: the dynamic term, identified
-  and subtracted while the arm moves;
-- :mod:`.filters`: the readings' low-pass;
-- :mod:`.streaming`: the estimate over files and live streams in chunks;
-- :mod:`.export_c`: a calibration as a libsail header.
+- :class:`Calibration` (:mod:`.file`): the data, ``Calibration.load`` / ``save`` and its estimate;
+  the file format is ``calibration.schema.json``;
+- :func:`tare` (:mod:`.tare`): new zero offsets from readings with nothing touching the handle.
+
+Fitting one lives in :mod:`sailforce.fit`, the run-time estimate in
+:mod:`sailforce.estimate`, the C header in :mod:`sailforce.export_c`.
 """
+
+from .file import Calibration, CalibrationFileError, checksum
+from .tare import Tare, tare
+
+__all__ = ["Calibration", "CalibrationFileError", "Tare", "checksum", "tare"]

@@ -11,7 +11,7 @@ File format (``schema_version`` 1), one JSON object:
   ``{"kind": "seed", "amplitude": [p1, p2], "phase_deg": [p1, p2]}``, each p a list of
   coefficients, highest power first, in delta [deg];
 - ``metrics``: fit and cross-validated RMSE [N], sample and delta counts;
-- ``dynamics`` (optional): the dynamic term of :mod:`sailforce.calibration.inertial`,
+- ``dynamics`` (optional): the dynamic term of :mod:`sailforce.estimate.dynamic`,
   ``{"columns": [names], "values": [..], "combinations": [..], "differentiator":
   {"window_s": .., "order": ..}, "source": "free-motion" | "prior"}``: base
   parameters [SI] in representative columns of :data:`sailforce.motion.dynamics.PARAMETERS`
@@ -36,24 +36,21 @@ from typing import NoReturn
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..arm import Arm
-from ..errors import GeometryError, SailError
+from ..errors import CalibrationFileError, GeometryError, InputError, SailError
+from ..estimate.dynamic import DynamicTerm
+from ..estimate.estimator import estimate_calibrated
 from ..io.files import atomic_writer
 from ..motion.differentiate import Differentiator
 from ..motion.dynamics import PARAMETERS
-from .compensation import AmplitudePhaseCompensator, MatrixCompensator
-from .estimator import estimate
-from .inertial import DynamicTerm
-from .regressors import PolynomialFit
+from ..sensing.maps import AmplitudePhaseCompensator, MatrixCompensator
+from ..sensing.polynomial import PolynomialFit
 
 SCHEMA_VERSION = 1
 REQUIRED = ("schema_version", "software", "created", "data_sha256", "units", "robot", "offsets", "capacity",
             "delta_range", "load_range", "model", "metrics", "checksum")  # fmt: skip
 
-
-class CalibrationFileError(SailError):
-    """A calibration file that is missing, corrupt, tampered with or out of range."""
 
 
 #: The text fields, as the patterns they must match: they reach C comments (``sail export-c``), the page and
@@ -89,7 +86,7 @@ def check_text(name: str, value: object) -> str:
     pattern, rule = TEXT_FIELDS[name]
     if not isinstance(value, str) or not pattern.match(value):
         shown = value if not isinstance(value, str) else value[:60] + ("..." if len(value) > 60 else "")
-        raise ValueError(f"{name} = {shown!r}: expected {rule}")
+        raise InputError(f"{name} = {shown!r}: expected {rule}")
     return value
 
 
@@ -98,7 +95,7 @@ class Calibration:
     """A fitted calibration: raw readings and joint angles in, end-effector force out.
 
     >>> import numpy as np
-    >>> from sailforce.calibration.compensation import MatrixCompensator
+    >>> from sailforce.sensing.maps import MatrixCompensator
     >>> arm = Arm()
     >>> c = np.zeros((1, 2, 2)); c[0] = np.diag([1 / 740, 1 / 528])   # loads = T_i / k_i
     >>> cal = Calibration(arm=arm, model=MatrixCompensator(arm, c, (0.2, 2.2)), offsets=(0.0, 0.0),
@@ -126,15 +123,21 @@ class Calibration:
     def kind(self) -> str:
         return "matrix" if isinstance(self.model, MatrixCompensator) else "seed"
 
-    def estimate(self, theta1, theta2, load1, load2, *, threads: int | None = None):
-        """``(fx, fy, status)`` [N] for readings: angles [rad], raw loads; vectorized.
+    def estimate(self, theta1, theta2, load1, load2, *, threads: int | None = None, static: bool = False):
+        """``(fx, fy, status)`` [N] for readings of a still arm: angles [rad], raw loads; vectorized.
 
-        Status codes are :mod:`sailforce.calibration.estimator`'s; fx and fy are NaN for
+        Status codes are :mod:`sailforce.estimate.estimator`'s; fx and fy are NaN for
         invalid and singular readings.  Large inputs run on ``threads``
-        threads (default :data:`sailforce.calibration.estimator.THREADS`).
+        threads (default :data:`sailforce.estimate.estimator.THREADS`).
+        A calibration with a dynamic term refuses, unless ``static``: the
+        readings of a moving arm need the time and the term subtracted
+        (:func:`sailforce.estimate.estimate_moving`).
         """
-        return estimate(self.model, self.offsets, self.capacity, self.delta_range, theta1, theta2, load1, load2,
-                        threads=threads)  # fmt: skip
+        if self.dynamics is not None and not static:
+            raise InputError("this calibration carries a dynamic term, which a still-arm estimate would ignore: use "
+                             "sailforce.estimate_moving(cal, cal.dynamics, t, theta1, theta2, load1, load2) with the "
+                             "samples' times, or pass static=True for readings of a still arm")  # fmt: skip
+        return estimate_calibrated(self, theta1, theta2, load1, load2, threads=threads)
 
     def with_offsets(self, offsets) -> Calibration:
         """A copy with new tare offsets (raw)."""
@@ -216,7 +219,7 @@ class Calibration:
         units = data["units"]
         try:
             if not isinstance(units, dict):
-                raise ValueError("units must be an object")
+                raise InputError("units must be an object")
             text = {k: check_text(k, data[k]) for k in ("created", "software", "data_sha256")}
             text["load"] = check_text("units.load", units.get("load", "raw"))
         except ValueError as exc:
@@ -275,12 +278,12 @@ def _check_sensing(model, capacity, delta_range, fail: Callable[[str], NoReturn]
 def _finite(text: str) -> float:
     value = float(text)
     if not math.isfinite(value):
-        raise ValueError(f"the number {text} is out of range")
+        raise InputError(f"the number {text} is out of range")
     return value
 
 
 def _not_a_number(text: str) -> float:
-    raise ValueError(f"{text} is not a number a calibration file may hold")
+    raise InputError(f"{text} is not a number a calibration file may hold")
 
 
 def checksum(content: dict) -> str:

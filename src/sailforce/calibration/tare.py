@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import InputError
 from .file import Calibration
 
 #: A tare warns when the no-load readings scatter by more than this
@@ -86,7 +86,7 @@ def tare(cal: Calibration, loads: np.ndarray, source: object = "the tare") -> Ta
     loads = np.asarray(loads, float).reshape(-1, 2)
     loads = loads[np.all(np.isfinite(loads), axis=1)]
     if len(loads) < MIN_TARE_SAMPLES:
-        raise SailError(f"{source}: {len(loads)} usable sample(s); a tare needs at least {MIN_TARE_SAMPLES}, so that "
+        raise InputError(f"{source}: {len(loads)} usable sample(s); a tare needs at least {MIN_TARE_SAMPLES}, so that "
                         "their spread shows whether the arm was still. Record for longer")  # fmt: skip
     offsets, spread = loads.mean(axis=0), loads.std(axis=0, ddof=1)
     pair = lambda a: (float(a[0]), float(a[1]))

@@ -16,7 +16,7 @@ import sys
 
 import click
 
-from .. import __version__
+from .._version import __version__
 from ..errors import SailError
 
 
@@ -35,6 +35,8 @@ class InternalError(click.ClickException):
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised like Ctrl-C so that every ``with`` block cleans up; exit code 143."""
 
+
+__all__ = ["DataError", "InternalError", "Terminated", "cli", "main"]
 
 EXIT_INTERRUPTED = 130  #: 128 + SIGINT, the shell's convention
 EXIT_TERMINATED = 143  #: 128 + SIGTERM

@@ -121,7 +121,7 @@ def lowpass_options(func):
 
 def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: int | None, *,
                  rate_alone: bool = False):  # fmt: skip
-    """The :class:`sailforce.calibration.filters.LowPass` the options ask for, or None (``rate_alone``: the rate has another use)."""
+    """The :class:`sailforce.estimate.filters.LowPass` the options ask for, or None (``rate_alone``: the rate has another use)."""
     if lowpass_hz is None:
         if (sample_rate_hz is not None and not rate_alone) or order is not None:
             given = "--sample-rate-Hz" if sample_rate_hz is not None else "--lowpass-order"
@@ -129,7 +129,7 @@ def make_lowpass(lowpass_hz: float | None, sample_rate_hz: float | None, order: 
         return None
     if sample_rate_hz is None:
         raise click.BadParameter("needs --sample-rate-Hz", param_hint="--lowpass-Hz")
-    from ..calibration.filters import LowPass
+    from ..estimate.filters import LowPass
 
     return LowPass(lowpass_hz, sample_rate_hz, 2 if order is None else order)
 

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import hashlib
 import math
-from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -12,46 +10,17 @@ import numpy as np
 from rich.console import Console
 
 from ..calibration.file import Calibration
-from ..calibration.fit import MODEL_KINDS, equivalent_capacity, fit_calibration
-from ..calibration.physics import DEFAULT_TRANSDUCTION
 from ..calibration.tare import TARE_MAX_SHIFT, tare
 from ..errors import SailError
 from ..fem.response import TRANSDUCTIONS
+from ..fit.calibration import MODEL_KINDS
+from ..fit.physics import DEFAULT_TRANSDUCTION
 from ..io.files import check_output
-from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, TableError, read_all
+from ..io.tables import read_clean
+from ..workflows import calibration_run
 from . import cli
 from ._options import file_only, load_robot, resolve_reading, robot_option
 from ._progress import progress_bar
-
-#: Readings and forces beyond this magnitude are refused: a 24-bit ADC gives
-#: 8.4e6 counts, and squares of 1e150 already overflow float64 in the fit.
-MAX_ABS_VALUE = 1e12
-
-
-def _sha256(path: Path) -> str:
-    with open(path, "rb") as stream:
-        return hashlib.file_digest(stream, "sha256").hexdigest()
-
-
-def _clean_rows(path: Path, needed: tuple[str, ...], what: str) -> dict[str, np.ndarray]:
-    """Every needed column of a calibration-type table; refuses the first row that is not a full set of numbers."""
-    values, malformed, lines = read_all(path, needed)
-    bad = malformed.copy()
-    for name in needed:
-        bad |= ~(np.abs(values[name]) <= MAX_ABS_VALUE)
-    if bad.any():
-        i = int(np.argmax(bad))
-        fields = ", ".join(f"{n}={_text(values[n][i])}" for n in needed)
-        raise SailError(
-            f"{path}, line {lines[i]}: not a complete row of numbers within ±{MAX_ABS_VALUE:g} ({fields}"
-            f"{'; wrong number of fields' if malformed[i] else ''}); {int(bad.sum())} such row(s). "
-            f"{what} must be clean: fix or remove them"
-        )
-    return values
-
-
-def _text(value: float) -> str:
-    return "missing or not a number" if math.isnan(value) else f"{value:g}"
 
 
 def _parse_capacity(ctx, param, value):
@@ -110,38 +79,19 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     check_output(output, {"the calibration data": data, "the --robot file": robot_path, "the --free-motion recording": free_motion})
     if free_motion is not None and dynamics is not None:
         raise click.UsageError("--dynamics chooses a dynamic term without --free-motion; give one or the other")
-    values = _clean_rows(data, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
-    theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
     console = Console()
-    physics = kind in ("physics", "auto")
-    if physics:
+    if kind in ("physics", "auto"):
         transduction = resolve_reading(robot, transduction, DEFAULT_TRANSDUCTION, console)
-    with progress_bar(console, "fitting the physics model", None, unit="starts", quiet=quiet or not physics) as advance:
-        model, offsets, report = fit_calibration(
-            robot.arm, theta1, theta2, values["fx_N"], values["fy_N"], values["load1"], values["load2"], kind=kind,
-            robot=robot, free=free_keys, transduction=transduction, progress=lambda done, total: advance(1))  # fmt: skip
+    with progress_bar(console, "fitting the physics model", None, unit="starts", quiet=quiet or kind not in ("physics", "auto")) as advance:
+        run = calibration_run(data, robot=robot, model=kind, free=free_keys, transduction=transduction, capacity=capacity,
+                              load_unit=load_unit, free_motion=free_motion, dynamics=dynamics,
+                              progress=lambda done, total: advance(1))  # fmt: skip
+    cal, report = run.calibration, run.fit
     if report.physics is not None:
         _print_physics(console, report.physics)
-    if capacity is None:
-        capacity = tuple(equivalent_capacity(model, robot.arm, robot.loadcell.capacity_N, report.delta_range))
-    loads = [values["load1"], values["load2"]]
-    cal = Calibration(
-        arm=robot.arm, model=model, offsets=tuple(map(float, offsets)), capacity=tuple(map(float, capacity)),
-        delta_range=report.model_delta_range, load_range=tuple((float(v.min()), float(v.max())) for v in loads),
-        load_unit=load_unit,
-        metrics={"fit_rmse_N": report.fit_rmse_N, "cv_rmse_N": report.cv_rmse_N,
-                 "cv_rmse_by_model_N": report.cv_rmse_by_kind, "n_samples": report.n_samples,
-                 "n_deltas": report.n_deltas, "model_selection": kind,
-                 "data_delta_range_deg": [float(v) for v in np.degrees(report.delta_range)],
-                 **({"physics": _physics_metrics(report.physics)} if report.physics is not None else {})},
-        data_sha256=_sha256(data),
-    )  # fmt: skip
-    if free_motion is not None:
-        cal = _identify(console, cal, robot, free_motion)
-    elif dynamics == "prior":
-        from ..calibration.inertial import prior_term
-
-        cal = replace(cal, dynamics=prior_term(robot), dynamics_source="prior")
+    if run.dynamic_fit is not None:
+        _print_dynamics(console, run, free_motion)
+    offsets, capacity = cal.offsets, cal.capacity
     cal.save(output)
     low, high = np.degrees(report.delta_range)
     scores = ", ".join(f"{k} {v:.4g} N" for k, v in report.cv_rmse_by_kind.items())
@@ -149,14 +99,6 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
                   f"{report.n_deltas} Δ values, Δ = {low:.4g}…{high:.4g}°")  # fmt: skip
     console.print(f"force RMSE: fit {report.fit_rmse_N:.4g} N, cross-validated {report.cv_rmse_N:.4g} N ({scores})")
     console.print(f"offsets {offsets[0]:.6g}, {offsets[1]:.6g} {load_unit}; capacity ±{capacity[0]:.4g}, ±{capacity[1]:.4g} {load_unit}")
-
-
-def _physics_metrics(physics) -> dict:
-    """What the calibration file records of a physics fit: each parameter with its standard error."""
-    fit = physics.identification
-    return {"parameters": {name: {"value": float(v), "standard_error": float(se), "identifiable": bool(ok)}
-                           for name, v, se, ok in zip(fit.names, fit.values, fit.standard_errors, fit.identifiable)},
-            "cv_rmse_N": physics.cv_rmse_N, "map_order": physics.compensator.order, "map_error": physics.map_error}  # fmt: skip
 
 
 def _print_physics(console: Console, physics) -> None:
@@ -178,33 +120,18 @@ def _print_physics(console: Console, physics) -> None:
                       "range allowed (a stiffness at 0.01 is a pin, at 1e7 a bonded joint)")  # fmt: skip
 
 
-def _identify(console: Console, cal: Calibration, robot, free_motion: Path) -> Calibration:
-    """The dynamic term from a free-motion recording, on top of the static calibration ``cal``."""
+def _print_dynamics(console: Console, run, free_motion: Path) -> None:
     from rich.table import Table
 
-    from ..calibration.inertial import fit_dynamic_term, prior_term
-
-    try:
-        values = _clean_rows(free_motion, ("t_s",) + READING_COLUMNS, "A free-motion recording")
-    except TableError as exc:
-        if "missing column(s) t_s" in str(exc):
-            raise TableError(f"{exc}. A free-motion recording needs t_s, the time of each sample [s], to derive "
-                             "the joint rates: record it with the readings") from None  # fmt: skip
-        raise
-    fit = fit_dynamic_term(cal, values["t_s"], np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"]),
-                           values["load1"], values["load2"])  # fmt: skip
-    prior = prior_term(robot)
+    fit = run.dynamic_fit
     table = Table(title=f"dynamic term from {free_motion}: base parameters [SI] (docs/dynamics.md)")
     for head in ("base parameter", "identified", "robot-file prior"):
         table.add_column(head, justify="left" if head == "base parameter" else "right")
-    for name, value, expected in zip(fit.term.combinations, fit.term.values, prior.values):
+    for name, value, expected in zip(fit.term.combinations, fit.term.values, run.prior.values):
         table.add_row(name, f"{value:.5g}", f"{expected:.5g}")
     console.print(table)
     console.print(f"dynamic fit: residual {fit.rmse_N:.4g} N, cross-validated by blocks {fit.cv_rmse_N:.4g} N, "
                   f"condition number {fit.condition:.3g}, {fit.samples} samples", highlight=False)  # fmt: skip
-    metrics = {**cal.metrics, "dynamics_rmse_N": fit.rmse_N, "dynamics_cv_rmse_N": fit.cv_rmse_N,
-               "dynamics_condition": fit.condition, "dynamics_samples": fit.samples}  # fmt: skip
-    return replace(cal, dynamics=fit.term, dynamics_source="free-motion", metrics=metrics)
 
 
 @cli.command("tare")
@@ -224,7 +151,7 @@ def tare_command(calibration, noload, output, force):
     """
     check_output(output, {"the no-load recording": noload, "the calibration CAL.json": calibration})
     cal = Calibration.load(calibration)
-    values = _clean_rows(noload, ("load1", "load2"), "A no-load recording")
+    values = read_clean(noload, ("load1", "load2"), "A no-load recording")
     result = tare(cal, np.column_stack([values["load1"], values["load2"]]), noload)
     if not force and result.too_far:
         raise SailError(f"{noload}: {result.shift_warnings(cal.load_unit)[0]} --force accepts it")

@@ -8,9 +8,9 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from .. import seed
 from ..arm import Arm
 from ..errors import SingularPoseError
+from ..paper import seed
 from ..statics import SINGULAR_SIN_DELTA, cartesian, polar
 from . import cli
 

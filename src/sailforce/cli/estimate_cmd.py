@@ -12,9 +12,9 @@ from rich.console import Console
 
 from .. import kernel
 from ..calibration.file import Calibration
-from ..calibration.streaming import estimate_lines, stream_estimate, table_motion
 from ..io.files import atomic_writer, check_output, table_format
 from ..io.tables import READING_COLUMNS, csv_header, input_size, is_parquet, parquet_schema
+from ..stream.pipeline import estimate_lines, stream_estimate, table_motion
 from . import cli
 from ._options import lowpass_options, make_lowpass
 from ._progress import progress_bar, skipped_note

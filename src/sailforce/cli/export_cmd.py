@@ -8,8 +8,8 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from ..calibration.export_c import calibration_header
 from ..calibration.file import Calibration
+from ..export_c import calibration_header
 from ..io.files import atomic_writer, check_output
 from . import cli
 from ._options import lowpass_options, make_lowpass

@@ -9,8 +9,8 @@ import click
 from rich.console import Console
 from rich.table import Table
 
-from ..calibration.regressors import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD, select_order
 from ..io.files import read_numeric_csv
+from ..sensing.polynomial import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD, select_order
 from . import cli
 
 

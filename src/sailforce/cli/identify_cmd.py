@@ -11,12 +11,14 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from ..errors import InputError
 from ..fem.response import TRANSDUCTIONS
-from ..identify import AMPLITUDE_WEIGHT, Identification, IdentifyError, ReadingsTarget, Table4Target, identify, with_free_springs
-from ..io.files import read_numeric_csv, write_figure, write_json
+from ..fit.identify import AMPLITUDE_WEIGHT, Identification, IdentifyError, ReadingsTarget
+from ..io.files import read_numeric_csv, write_figure, write_json, write_numeric_table
 from ..io.robotfile import template
-from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS
-from ..study import TABLE4_COLUMNS, Protocol, table4
+from ..paper.study import TABLE4_COLUMNS, table4
+from ..paper.table4_fit import Table4Target
+from ..workflows import identify_robot, readings_target, table4_target
 from . import cli
 from ._options import load_robot, resolve_reading, robot_option
 from ._progress import progress_bar
@@ -47,20 +49,10 @@ def _table4_target(spec: str, transduction: str, amplitude_weight: float) -> Tab
     if tuple(names[:5]) != TABLE4_COLUMNS:
         raise click.BadParameter(f"{spec}: expected the columns {', '.join(TABLE4_COLUMNS)} (as `sail reproduce` writes "
                                  f"table4.csv), found {', '.join(names)}", param_hint="--table4")  # fmt: skip
-    delta = table[:, 0]
-    if delta.size < 3 or not (np.all(np.diff(delta) > 0) and delta[0] > 0 and delta[-1] <= 120.0):
-        raise click.BadParameter(f"{spec}: delta_deg must rise through at least 3 values in (0, 120] deg: sweep 2 "
-                                 "holds theta1 = 120 deg and turns theta2 = 120 - delta", param_hint="--table4")  # fmt: skip
-    protocol = Protocol(sweep1_theta1_deg=tuple(map(float, delta)), sweep2_theta2_deg=tuple(map(float, 120.0 - delta[::-1])))
-    return Table4Target(table[:, :5], transduction, amplitude_weight, protocol)
-
-
-def _readings_target(path: Path, transduction: str) -> ReadingsTarget:
-    from .calibrate_cmd import _clean_rows
-
-    values = _clean_rows(path, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
-    return ReadingsTarget(np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"]), values["fx_N"],
-                          values["fy_N"], values["load1"], values["load2"], transduction)  # fmt: skip
+    try:
+        return table4_target(table, transduction, amplitude_weight)
+    except InputError as exc:
+        raise click.BadParameter(f"{spec}: {exc}", param_hint="--table4") from None
 
 
 @cli.command("identify")
@@ -142,19 +134,18 @@ def identify_command(robot_path, table4_spec, data, free, bounds, transduction, 
         reading = resolve_reading(robot, transduction, "deflection", console)
         target: Table4Target | ReadingsTarget = _table4_target(table4_spec, reading, amplitude_weight)
     else:
-        target = _readings_target(data, resolve_reading(robot, transduction, "bridge", console))
+        target = readings_target(data, resolve_reading(robot, transduction, "bridge", console))
     if robot_path is not None and output.joinpath("identified.toml").resolve() == Path(robot_path).resolve():
         raise click.UsageError(f"{robot_path} is the --robot file: choose another -o directory, so it is not replaced")
-    springs = with_free_springs(robot, keys)
-    if springs.joints != robot.joints:
-        console.print(f"note: joints {robot.joints.label} -> {springs.joints.label}: a free stiffness needs a spring "
-                      "(0.01 N·m/rad is a pin, 1e7 bonded)", highlight=False)  # fmt: skip
-        robot = springs
     with progress_bar(console, "identifying", None, unit="starts", quiet=quiet) as advance:
         try:
-            fit = identify(robot, target, keys, bounds=bounds, starts=starts, progress=lambda done, total: advance(1))
+            run = identify_robot(robot, target, keys, bounds=bounds, starts=starts, progress=lambda done, total: advance(1))
         except IdentifyError as exc:
             raise click.UsageError(str(exc)) from None
+    if run.springs_added:
+        console.print(f"note: joints {robot.joints.label} -> {run.robot.joints.label}: a free stiffness needs a spring "
+                      "(0.01 N·m/rad is a pin, 1e7 bonded)", highlight=False)  # fmt: skip
+    fit, robot = run.identification, run.robot
     output.mkdir(parents=True, exist_ok=True)
     _write(output, fit, target, robot)
     _print(console, fit, output)
@@ -165,9 +156,7 @@ def _write(output: Path, fit: Identification, target, robot) -> None:
 
     rows = np.column_stack([_row_key(target), fit.residuals])
     head = ["delta_deg" if isinstance(target, Table4Target) else "row", *(_column_name(c) for c in fit.residual_columns)]
-    with atomic_writer(output / "residuals.csv") as stream:
-        stream.write(",".join(head) + "\n")
-        np.savetxt(stream, rows, fmt="%.10g", delimiter=",")
+    write_numeric_table(output / "residuals.csv", head, rows, csv_format="%.10g")
     with atomic_writer(output / "identified.toml") as stream:  # the reading it was fitted under, for every later command
         stream.write(template(replace(fit.robot, loadcell=replace(fit.robot.loadcell, reading=target.transduction))))
     write_json(output / "identify.json", {

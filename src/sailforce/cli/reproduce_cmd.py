@@ -10,10 +10,10 @@ import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from ..calibration.regressors import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD
 from ..fem.response import TRANSDUCTIONS
+from ..paper.study import ModelId, StudyResult
 from ..robot import JOINT_MODELS
-from ..study import ModelId, StudyResult, run_study
+from ..sensing.polynomial import CRITERIA, DEFAULT_CRITERION, DEFAULT_THRESHOLD
 from . import cli
 from ._options import load_robot, resolve_reading, robot_option, robot_with_joints
 from ._progress import print_notes
@@ -65,93 +65,63 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
     base = robot_with_joints(robot_path, joints, "bonded", console)
     transduction = resolve_reading(base, transduction, "deflection", console)
     output.mkdir(parents=True, exist_ok=True)
-    label = base.joints.label
-    robots = {label: base} | ({compare_joints: base.with_joints(compare_joints)} if compare_joints not in ("none", label) else {})
-    passes = list(robots)
-    results: list[StudyResult] = []
-    study_seconds = 0.0
+    from ..paper.seed_model import FAMILIES
+    from ..workflows import reproduce
+
+    passes = 1 + (compare_joints not in ("none", base.joints.label))
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn())
     with Progress(*columns, console=console, transient=True) as progress:
-        from ..seed_model import FAMILIES
+        task = progress.add_task("reproducing", total=3 * passes + 1 + (len(FAMILIES) if seed_model else 0) + (1 if solid else 0))
+        steps = [0]
 
-        families = len(FAMILIES) if seed_model else 0
-        task = progress.add_task("reproducing", total=3 * len(passes) + 1 + families + (1 if solid else 0))
-        for k, model in enumerate(passes):
-            robot = robots[model]
-            progress.update(task, description=f"study, {model} joints")
-            t0 = time.perf_counter()
-            result = run_study(robot, transduction, criterion=criterion, threshold=threshold)
-            study_seconds += time.perf_counter() - t0
-            results.append(result)
-            progress.advance(task)
-            directory = output if k == 0 else output / model
+        def step(description: str) -> None:  # each step done when the next starts
+            if steps[0]:
+                progress.advance(task)
+            steps[0] += 1
+            progress.update(task, description=description)
+
+        run = reproduce(base, transduction=transduction, compare_joints=compare_joints, criterion=criterion,
+                        threshold=threshold, seed_model=seed_model, seed_robot=load_robot(robot_path), solid=solid,
+                        solid_mesh_size=solid_mesh_mm / 1e3, progress=step)  # fmt: skip
+        from ..report.results import write_results
+
+        for k, result in enumerate(run.studies):
+            directory = output if k == 0 else output / result.robot.joints.label
             directory.mkdir(exist_ok=True)
-            progress.update(task, description=f"tables, {model} joints")
-            from ..report.results import write_results
-
+            step(f"tables, {result.robot.joints.label} joints")
             write_results(directory, result)
-            progress.advance(task)
-            progress.update(task, description=f"figures, {model} joints")
+            step(f"figures, {result.robot.joints.label} joints")
             _write_figures(directory, result, dpi)
-            progress.advance(task)
-        seed_fits = None
-        if seed_model:
+        if run.seed_model is not None:
             from ..report.seed_model import write_seed_model
-            from ..seed_model import seed_model_study
 
-            def fitting(name: str) -> None:
-                if progress.tasks[0].description.startswith("seed model"):
-                    progress.advance(task)
-                progress.update(task, description=f"seed model: {name}")
-
-            seed_fits = seed_model_study(load_robot(robot_path), results[0].protocol, progress=fitting)  # its own joints
-            progress.advance(task)
-            write_seed_model(output, seed_fits, dpi)
-        solid_markdown = None
-        if solid:
-            progress.update(task, description=f"solid model, {label} joints ({solid_mesh_mm:g} mm)")
-            solid_markdown = _solid_pass(output, base, results[0], solid_mesh_mm, dpi)
-            progress.advance(task)
-        progress.update(task, description="report")
+            write_seed_model(output, run.seed_model, dpi)
+        solid_markdown = _solid_outputs(output, base, run.solid, solid_mesh_mm, dpi) if run.solid is not None else None
+        step("report")
         from ..report.document import write_report
 
-        write_report(output, results[0], results[1] if len(results) > 1 else None, study_seconds, seed_fits, solid_markdown)
+        results = list(run.studies)
+        write_report(output, results[0], results[1] if len(results) > 1 else None, run.study_seconds, run.seed_model,
+                     solid_markdown)  # fmt: skip
         progress.advance(task)
 
-    _print_summary(console, results, output, study_seconds, time.perf_counter() - started)
+    _print_summary(console, results, output, run.study_seconds, time.perf_counter() - started)
 
 
-def _solid_pass(output: Path, robot, study: StudyResult, mesh_mm: float, dpi: int) -> str:
-    """The seed protocol's sweeps as solids (cached), written to DIR/solid; the report section's Markdown."""
-    from ..fem.response import simulate
+def _solid_outputs(output: Path, robot, solid, mesh_mm: float, dpi: int) -> str:
+    """The solid pass written to DIR/solid; the report section's Markdown."""
     from ..io.files import write_json
     from ..report.solid_figure import write_table4_comparison
     from ..report.solid_section import solid_section
-    from ..seed import seed_table4
-    from ..solid.arm import check_joints
-    from ..solid.sweep import SolidSettings, default_cache_dir, response_rows, run_poses, seed_poses
-    from ..study import table4_from_rows
-    from . import DataError
 
-    check_joints(robot)
-    poses, sweeps = seed_poses(study.protocol)
-    started = time.perf_counter()
-    result = run_poses(robot, poses, SolidSettings(mesh_size=mesh_mm / 1e3), cache_dir=default_cache_dir())
-    seconds = time.perf_counter() - started
-    print_notes(Console(stderr=True), result.notes)
-    rows = [response_rows(result, s) for s in sweeps]
-    if rows[0] is None or rows[1] is None:
-        raise DataError(f"the solid failed at {len(result.failures)} poses: {next(iter(result.failures.values()))}")
-    tables = {"solid": table4_from_rows(robot.arm, study.protocol, rows[0], rows[1]), "frame": study.table4,
-              "seed": seed_table4()}  # fmt: skip
+    print_notes(Console(stderr=True), solid.result.notes)
     directory = output / "solid"
     directory.mkdir(exist_ok=True)
-    write_table4_comparison(directory, tables, dpi)
-    pose_array = np.array(poses)
-    frame_torques = simulate(robot, pose_array[:, 0], pose_array[:, 1]).torques
-    write_json(directory / "results.json", {"mesh_mm": mesh_mm, "joints": robot.joints.label, "seconds": seconds,
-                                            "cached": result.cached, "table4": {n: t.tolist() for n, t in tables.items()}})  # fmt: skip
-    return solid_section(robot, result, tables, frame_torques, mesh_mm, seconds)
+    write_table4_comparison(directory, solid.tables, dpi)
+    write_json(directory / "results.json", {"mesh_mm": mesh_mm, "joints": robot.joints.label, "seconds": solid.seconds,
+                                            "cached": solid.result.cached,
+                                            "table4": {n: t.tolist() for n, t in solid.tables.items()}})  # fmt: skip
+    return solid_section(robot, solid.result, solid.tables, solid.frame_torques, mesh_mm, solid.seconds)
 
 
 def _write_figures(directory: Path, result: StudyResult, dpi: int) -> None:

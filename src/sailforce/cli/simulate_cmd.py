@@ -9,7 +9,7 @@ import click
 import numpy as np
 from rich.console import Console
 
-from .. import __version__
+from .._version import __version__
 from ..fem.model import build_model
 from ..fem.response import TRANSDUCTION_UNITS, TRANSDUCTIONS, simulate_model
 from ..io.files import check_output, check_sidecar, numeric_table_writer, table_format, write_json

@@ -8,7 +8,7 @@ import click
 import numpy as np
 from rich.console import Console
 
-from .. import __version__
+from .._version import __version__
 from ..io.files import check_output, check_sidecar, numeric_table_writer, table_format, write_json
 from ..motion.dynamics import base_parameters, inertial_parameters, parameter_vector
 from ..motion.reaching import reaching, record

@@ -1,4 +1,4 @@
-"""``sail solid``, ``sail solid-sweep`` and ``sail cell-fit``: the arm as a gmsh + CalculiX solid (issue 13)."""
+"""``sail solid``, ``sail solid-sweep`` and ``sail cell-fit``: the arm as a gmsh + CalculiX solid."""
 
 from __future__ import annotations
 
@@ -11,15 +11,15 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from ..io.files import atomic_writer, check_output, write_json
-from ..study import Protocol
+from ..io.files import atomic_writer, check_output, write_figure, write_json, write_numeric_table
+from ..paper.study import Protocol
 from . import cli
 from ._options import FINITE, load_robot, robot_option
 from ._progress import print_notes, progress_bar
 
 #: Default element size [mm]: 2 mm solves a 2-D pose in about 10 s on one core.
 DEFAULT_MESH_MM = 2.0
-#: The pose ``sail solid`` and ``sail cell-fit`` check at: the seed's stress pose (sailforce.study.Protocol).
+#: The pose ``sail solid`` and ``sail cell-fit`` check at: the seed's stress pose (sailforce.paper.study.Protocol).
 CHECK_POSE_DEG = Protocol().stress_pose_deg
 
 joints_choice = click.option("--joints", type=click.Choice(("pin", "bonded")), default=None,
@@ -72,52 +72,38 @@ def solid_command(robot_path, joints, theta1_deg, theta2_deg, mesh_mm, force_n, 
     seed's Fig. 4 from the solid) and readings.png.
     """
     from ..report.solid_figure import readings_figure, solid_stress_figure
-    from ..solid.arm import solve_pose
-    from ..solid.cache import SolidCache
-    from ..solid.compare import READINGS, compare, curves, frame_readings, pose_deg
-    from ..solid.sweep import cell_depth, default_cache_dir
-    from ..sweep import check_not_singular
+    from ..solid.compare import READINGS
+    from ..workflows import check_solid
 
     check_output(output / "readings.csv", {"the --robot file": robot_path})
     robot = _prepare(robot_path, joints)
     theta1, theta2 = math.radians(theta1_deg), math.radians(theta2_deg)
-    check_not_singular(theta1, theta2)
-    settings = _settings(mesh_mm)
     console = Console(stderr=True)
-    started = time.perf_counter()
-    cache = SolidCache(cache_dir or default_cache_dir())
-    with console.status("calibrating the load cell's depth"):
-        depth = cell_depth(robot, settings, cache)
-    print_notes(console, cache.notes)
-    with console.status(f"solving the solid at {pose_deg(theta1, theta2)} ({mesh_mm:g} mm mesh)"):
-        response = solve_pose(robot, theta1, theta2, cell_depth=depth.depth, mesh_size=settings.mesh_size,
-                              stresses=True, workdir=output / "ccx" if keep_deck else None)  # fmt: skip
-    seconds = time.perf_counter() - started
+    with console.status("solving") as status:
+        check = check_solid(robot, theta1, theta2, mesh_size=mesh_mm / 1e3, force_N=force_n, cache_dir=cache_dir,
+                            workdir=output / "ccx" if keep_deck else None, status=status.update)  # fmt: skip
+    print_notes(console, check.notes)
+    response, depth, seconds, phi = check.response, check.depth, check.seconds, check.phi
     output.mkdir(parents=True, exist_ok=True)
-    phi = np.radians(Protocol().phi_deg)
-    frame = frame_readings(robot, theta1, theta2)
-    solid_curves = {name: curves(getattr(response, name), phi, force_n) for name in READINGS}
-    frame_curves = {name: curves(frame[name], phi, force_n) for name in READINGS}
     columns = ["phi_deg"] + [f"{name}_{i}_{src}" for name in READINGS for src in ("solid", "frame") for i in (1, 2)]
-    table = np.column_stack([np.degrees(phi)] + [c[name][i] for name in READINGS for c in (solid_curves, frame_curves)
+    table = np.column_stack([np.degrees(phi)] + [c[name][i] for name in READINGS for c in (check.solid_curves, check.frame_curves)
                                                  for i in range(2)])  # fmt: skip
-    with atomic_writer(output / "readings.csv") as stream:
-        stream.write(",".join(columns) + "\n")
-        np.savetxt(stream, table, fmt="%.10g", delimiter=",")
-    comparison = compare(robot, response)
+    write_numeric_table(output / "readings.csv", columns, table, csv_format="%.10g")
+    comparison = check.comparison
     write_json(output / "results.json", {
         "pose_deg": [theta1_deg, theta2_deg], "joints": robot.joints.label, "mesh_mm": mesh_mm,
         "dofs": response.dofs, "seconds": seconds, "force_N": force_n,
         "cell": {"depth_m": depth.depth, "rated_deflection_m": depth.target, "achieved_m": depth.achieved},
         "solid": response.as_dict(), "comparison": comparison,
     })  # fmt: skip
+    from ..solid.compare import pose_deg
+
     title = f"{pose_deg(theta1, theta2)}, {robot.joints.label} joints, {force_n:g} N, {mesh_mm:g} mm mesh"
-    figures = {"readings.png": lambda: readings_figure(phi, solid_curves, frame_curves, title)}
+    figures = {"readings.png": lambda: readings_figure(phi, check.solid_curves, check.frame_curves, title)}
     if response.stresses is not None:
         figures["stress.png"] = lambda: solid_stress_figure(response, np.radians(Protocol().stress_phi_deg), force_n, title)
     for name, make in figures.items():
-        with atomic_writer(output / name, "wb") as stream:
-            make().savefig(stream, format="png", dpi=dpi)
+        write_figure(output / name, make(), dpi=dpi)
     _print_comparison(Console(), comparison, response, depth, seconds, output)
 
 
@@ -170,9 +156,9 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, cache_dir, n
     listed with its error, in results.json and here, and the exit code is 1.
     """
     from ..distributed import ClusterError
-    from ..seed import seed_table4
+    from ..paper.seed import seed_table4
+    from ..paper.study import TABLE4_COLUMNS, table4, table4_from_rows
     from ..solid.sweep import default_cache_dir, read_poses, response_rows, run_poses, seed_poses
-    from ..study import TABLE4_COLUMNS, table4, table4_from_rows
     from . import DataError
 
     inputs = {"the --robot file": robot_path, "the --protocol file": None if protocol_spec == "seed" else protocol_spec}
@@ -211,18 +197,15 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, cache_dir, n
         if rows[0] is not None and rows[1] is not None:
             tables = {"solid": table4_from_rows(robot.arm, protocol, rows[0], rows[1]), "frame": table4(robot),
                       "seed": seed_table4()}  # fmt: skip
-            with atomic_writer(output / "table4.csv") as stream:
-                stream.write(",".join(TABLE4_COLUMNS) + "\n")
-                np.savetxt(stream, tables["solid"], fmt="%.8g", delimiter=",")
+            write_numeric_table(output / "table4.csv", TABLE4_COLUMNS, tables["solid"], csv_format="%.8g")
             from ..report.solid_figure import write_table4_comparison
 
             write_table4_comparison(output, tables, dpi)
             summary["table4"] = {name: t.tolist() for name, t in tables.items()}
-            torques = np.stack([r.torques for r in result.responses if r is not None])
-            from ..calibration.compensation import torque_rows
+            from ..solid.compare import torque_against_jt
 
-            jt = torque_rows(robot.arm, *np.array(poses).T)
-            summary["torque_vs_jt_max_relative"] = float(np.max(np.abs(torques - jt)) / np.max(np.abs(jt)))
+            torques = np.stack([r.torques for r in result.responses if r is not None])
+            summary["torque_vs_jt_max_relative"] = torque_against_jt(robot, poses, torques)
     write_json(output / "results.json", summary)
     print_notes(console, result.notes)
     console.print(f"{len(poses)} poses ({result.cached} from the cache) in {seconds:.1f} s; wrote {output}", highlight=False)
@@ -236,13 +219,11 @@ def solid_sweep_command(protocol_spec, robot_path, joints, mesh_mm, cache_dir, n
 def _write_poses(path: Path, result) -> None:
     names = ["theta1_deg", "theta2_deg", "ok"] + [f"{q}_{i}{j}" for q in ("torque", "deflection", "relative")
                                                   for i in (1, 2) for j in ("x", "y")]  # fmt: skip
-    with atomic_writer(path) as stream:
-        stream.write(",".join(names) + "\n")
-        for (a, b), response in zip(result.poses, result.responses):
-            values = ([np.nan] * 12 if response is None else
-                      np.concatenate([response.torques.ravel(), response.deflection.ravel(), response.relative.ravel()]).tolist())
-            stream.write(",".join([f"{math.degrees(a):.10g}", f"{math.degrees(b):.10g}", str(int(response is not None))]
-                                  + [f"{v:.10g}" for v in values]) + "\n")  # fmt: skip
+    rows = [[math.degrees(a), math.degrees(b), float(response is not None)]
+            + ([np.nan] * 12 if response is None else
+               np.concatenate([response.torques.ravel(), response.deflection.ravel(), response.relative.ravel()]).tolist())
+            for (a, b), response in zip(result.poses, result.responses)]  # fmt: skip
+    write_numeric_table(path, names, rows, csv_format="%.10g")  # the ok flag reads 1 or 0
 
 
 @cli.command("cell-fit")

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import kernel
 from ..fem.model import LOADCELL_MEMBERS, MEMBERS
 from ..fem.response import ArmResponse, _section_table
 from ..kinematics import jacobian
@@ -62,7 +63,7 @@ class Resolution:
 
 def resolution(sensing: np.ndarray, noise) -> Resolution:
     """Force noise from reading noise ``noise`` (scalar or ``(2,)`` [mV/V]) through ``sensing`` ``(..., 2, 2)``."""
-    inverse = np.linalg.inv(sensing)
+    inverse = kernel.matrix(kernel.inverse_entries(kernel.entries(sensing)))
     sigma2 = np.broadcast_to(np.asarray(noise, dtype=float) ** 2, (2,))
     covariance = inverse @ (sigma2[:, None] * np.swapaxes(inverse, -1, -2))
     eigenvalues, vectors = np.linalg.eigh(covariance)

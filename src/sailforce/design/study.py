@@ -1,4 +1,4 @@
-"""``sail design``'s computation: every map on an x-y grid of reachable poses, and the summary (issue 17)."""
+"""``sail design``'s computation: every map on an x-y grid of reachable poses, and the summary."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import DesignError
 from ..fem.model import build_model
 from ..fem.modes import DEFAULT_MODES, Modes, arm_modes
 from ..fem.response import simulate_model
@@ -24,9 +24,6 @@ DEFAULT_DELTA_DEG = (15.0, 165.0)
 #: Joint-space samples per axis used to find the workspace's bounding box.
 BOUNDS_SAMPLES = 181
 
-
-class DesignError(SailError):
-    """A design study that cannot be run as asked (no reachable pose, a bad range)."""
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..kinematics import joint_positions
 from ..robot import JOINT_NAMES, Robot
 from .elements import flexibility_stiffness, local_stiffness, shear_parameter
 from .frame import GROUND, Frame, make_frame
@@ -165,16 +166,13 @@ def build_model(robot: Robot, *, shear_deformation: bool = True) -> ArmModel:
 
 def node_positions(model: ArmModel, theta1, theta2) -> dict[str, np.ndarray]:
     """Undeformed node positions ``(..., 2)`` [m] for drawing."""
-    theta1 = np.asarray(theta1, dtype=float)
-    theta2 = np.asarray(theta2, dtype=float)
-    u1 = np.stack([np.cos(theta1), np.sin(theta1)], axis=-1)
-    u2 = np.stack([np.cos(theta2), np.sin(theta2)], axis=-1)
-    L = model.lengths
-    arm = model.robot.arm
+    joints = joint_positions(model.robot.arm, theta1, theta2)  # P1, P2, P3, A (seed Eq. 1)
+    arm, L = model.robot.arm, model.lengths
+    u1, u2 = joints["P1"] / arm.l1, joints["P2"] / arm.l2
     zero = np.zeros_like(u1)
     return {
         "B1": zero, "B2": zero,
-        "C1a": L[0] * u1, "C1b": (L[0] + L[1]) * u1, "P1": arm.l1 * u1,
-        "C2a": L[3] * u2, "C2b": (L[3] + L[4]) * u2, "P2": arm.l2 * u2,
-        "P3": arm.l1 * u1 + arm.l2 * u2, "A": arm.l3 * u1 + arm.l2 * u2,
+        "C1a": L[0] * u1, "C1b": (L[0] + L[1]) * u1, "P1": joints["P1"],
+        "C2a": L[3] * u2, "C2b": (L[3] + L[4]) * u2, "P2": joints["P2"],
+        "P3": joints["P3"], "A": joints["A"],
     }  # fmt: skip

@@ -1,4 +1,4 @@
-"""Natural frequencies and mode shapes of a frame, batched over poses (issue 17).
+"""Natural frequencies and mode shapes of a frame, batched over poses.
 
 Each member carries the consistent mass matrix of a prismatic Euler-Bernoulli
 beam with axial motion (Przemieniecki 1968, Sec. 11.4; Cook et al.,

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import InputError, MissingExtraError
 from .model import MEMBERS, NODES, ArmModel, node_positions
 
 LOAD_CASES = ("Fx", "Fy")
@@ -40,12 +40,12 @@ def solve_with_pynite(model: ArmModel, theta1: float, theta2: float) -> PyNiteRe
     try:
         from Pynite import FEModel3D
     except ImportError:  # pragma: no cover - exercised only without the dev extra
-        raise SailError("the PyNite cross-check needs `pip install pynitefea` (in the dev extra)") from None
+        raise MissingExtraError("the PyNite cross-check needs `pip install pynitefea` (in the dev extra)") from None
     robot = model.robot
     if model.shear_deformation:
-        raise SailError("PyNite has no shear deformation: build the model with shear_deformation=False")
+        raise InputError("PyNite has no shear deformation: build the model with shear_deformation=False")
     if robot.joints.model == "spring" or not robot.joints.uniform:
-        raise SailError("the PyNite cross-check covers pin and bonded joints only, the same at P1, P2 and P3")
+        raise InputError("the PyNite cross-check covers pin and bonded joints only, the same at P1, P2 and P3")
 
     fe = FEModel3D()
     positions = node_positions(model, theta1, theta2)

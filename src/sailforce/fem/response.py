@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validate import as_float_arrays
+from ..errors import InputError
 from ..loadcell import READINGS
 from ..robot import Robot
 from .elements import rotation
@@ -63,7 +64,7 @@ class ArmResponse:
             cell = self.model.robot.loadcell
             axial, shear, moment = (self.cell_forces[..., k, :] for k in range(3))
             return cell.bridge_signal(shear, axial, moment)
-        raise ValueError(f"transduction = {transduction!r}: expected one of {', '.join(TRANSDUCTIONS)}")
+        raise InputError(f"transduction = {transduction!r}: expected one of {', '.join(TRANSDUCTIONS)}")
 
 
 def simulate(robot: Robot, theta1, theta2, *, shear_deformation: bool = True) -> ArmResponse:

@@ -16,20 +16,12 @@ from typing import IO
 
 import numpy as np
 
-from ..errors import SailError
-
-
-class TableError(SailError):
-    """A table that cannot be read: missing, empty, ragged, a bad header or cell, missing columns, corrupt Parquet."""
-
+from ..errors import OutputPathError, TableError
 
 #: Table formats a command may write, by file extension.
 CSV_SUFFIXES = (".csv",)
 PARQUET_SUFFIXES = (".parquet", ".pq")
 
-
-class OutputPathError(SailError):
-    """An output path that would overwrite an input, or that names no format sailforce writes."""
 
 
 @contextmanager
@@ -212,6 +204,18 @@ def numeric_table_writer(path: str | Path, columns: tuple[str, ...], *, csv_form
     with atomic_writer(path) as stream:
         stream.write(",".join(columns) + "\n")
         yield lambda values: np.savetxt(stream, np.column_stack([values[n] for n in columns]), fmt=csv_format, delimiter=",")
+
+
+def write_numeric_table(path: str | Path, columns, table, *, csv_format: str = "%.12g") -> None:
+    """Write ``table`` ``(n, len(columns))`` under the header ``columns``: the one numeric table writer.
+
+    CSV or Parquet by the extension, atomically (:func:`numeric_table_writer`);
+    CSV numbers in ``csv_format`` (NaN as ``nan``).
+    """
+    columns = tuple(columns)
+    table = np.asarray(table, dtype=float).reshape(-1, len(columns))
+    with numeric_table_writer(path, columns, csv_format=csv_format) as write:
+        write({name: table[:, i] for i, name in enumerate(columns)})
 
 
 def write_figure(path: str | Path, figure, *, dpi: float = 150) -> None:

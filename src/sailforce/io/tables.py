@@ -164,6 +164,34 @@ def read_all(path: str | Path, needed: tuple[str, ...]) -> tuple[dict[str, np.nd
     return ({n: np.concatenate(v) for n, v in values.items()}, np.concatenate(malformed), np.concatenate(lines))
 
 
+#: Readings and forces beyond this magnitude are refused by :func:`read_clean`: a 24-bit ADC gives
+#: 8.4e6 counts, and squares of 1e150 already overflow float64 in a fit.
+MAX_ABS_VALUE = 1e12
+
+
+def read_clean(path: str | Path, needed: tuple[str, ...], what: str) -> dict[str, np.ndarray]:
+    """Every ``needed`` column of a calibration-type table, which must be clean: the first bad row is refused.
+
+    A row is bad when it is malformed (a wrong number of fields) or a needed
+    field is missing, not a number, or beyond :data:`MAX_ABS_VALUE`.  ``what``
+    names the table in the message (``"Calibration data"``).
+    """
+    values, malformed, lines = read_all(path, needed)
+    bad = malformed.copy()
+    for name in needed:
+        bad |= ~(np.abs(values[name]) <= MAX_ABS_VALUE)
+    if bad.any():
+        i = int(np.argmax(bad))
+        text = lambda v: "missing or not a number" if np.isnan(v) else f"{v:g}"
+        fields = ", ".join(f"{n}={text(values[n][i])}" for n in needed)
+        raise TableError(
+            f"{path}, line {lines[i]}: not a complete row of numbers within ±{MAX_ABS_VALUE:g} ({fields}"
+            f"{'; wrong number of fields' if malformed[i] else ''}); {int(bad.sum())} such row(s). "
+            f"{what} must be clean: fix or remove them"
+        )
+    return values
+
+
 def read_header(source: object, raw: bytes, needed: tuple[str, ...]) -> Header:
     """Parse and check a header line (bytes as read, line end included); ``source`` names it in messages."""
     if not raw.strip():

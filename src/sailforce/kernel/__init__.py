@@ -9,8 +9,8 @@ by Cramer's rule (cf. seed Eq. 8):
 - statics (:func:`sailforce.statics.end_effector_force`): M = J^T and s = T,
   the joint torques (seed Eqs. 3 and 7, with the corrected inverse of
   docs/errata.md);
-- the estimator (:mod:`sailforce.calibration.estimator`, and through it
-  :func:`sailforce.calibration.compensation.estimate_force` and
+- the estimator (:mod:`sailforce.estimate.estimator`, and through it
+  :func:`sailforce.estimate.estimate_force` and
   :meth:`sailforce.Calibration.estimate`): M is the calibration's sensing
   matrix and s the offset-free readings.
 
@@ -40,12 +40,15 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from ..errors import SailError
-from ..kinematics import is_singular, sin_delta_from_trig
+from ..errors import InputError, MissingExtraError
+from ..kinematics import SINGULAR_SIN_DELTA, is_singular, sin_delta_from_trig, transposed_jacobian_entries
 from .verdict import NEAR, VERDICT_BAND  # noqa: F401 (re-exported)
 
 #: The four entries (m00, m01, m10, m11) of a batch of 2x2 matrices, each of the batch shape.
 Entries = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+__all__ = ["BACKENDS", "BACKEND_ENV", "Entries", "backend", "compiled", "entries", "force_from_torques", "inverse_entries",
+           "matrix", "prefer_backend", "solve_2x2", "solve_at_poses", "torque_entries", "use_backend"]
 
 BACKENDS = ("compiled", "numpy")
 #: The environment variable that picks the back-end.
@@ -55,9 +58,28 @@ _module = None  # the compiled module, once imported
 _chosen: str | None = None
 
 
-def torque_entries(l2: float, l3: float, sin1, cos1, sin2, cos2) -> Entries:
-    """J^T as entries from the joint angles' sines and cosines: rows l3 (-sin th1, cos th1), l2 (-sin th2, cos th2) (seed Eq. 4)."""
-    return (-l3 * sin1, l3 * cos1, -l2 * sin2, l2 * cos2)
+#: J^T as entries from the joint angles' sines and cosines (seed Eq. 4): :func:`sailforce.kinematics.transposed_jacobian_entries`.
+torque_entries = transposed_jacobian_entries
+
+
+def entries(matrix) -> Entries:
+    """The entries ``(m00, m01, m10, m11)`` of a batch of 2x2 matrices ``(..., 2, 2)``."""
+    matrix = np.asarray(matrix, dtype=float)
+    return matrix[..., 0, 0], matrix[..., 0, 1], matrix[..., 1, 0], matrix[..., 1, 1]
+
+
+def matrix(m: Entries) -> np.ndarray:
+    """The batch of 2x2 matrices ``(..., 2, 2)`` with entries ``m``."""
+    m00, m01, m10, m11 = np.broadcast_arrays(*m)
+    return np.stack([np.stack([m00, m01], axis=-1), np.stack([m10, m11], axis=-1)], axis=-2)
+
+
+def inverse_entries(m: Entries, skip=False) -> Entries:
+    """M^-1 as entries, the adjugate over det M (Cramer's rule); NaN where ``skip`` or det M = 0."""
+    m00, m01, m10, m11 = m
+    det = m00 * m11 - m01 * m10
+    det = np.where(skip | (det == 0.0), np.nan, det)
+    return m11 / det, -m01 / det, -m10 / det, m00 / det
 
 
 def solve_2x2(m: Entries, b1, b2, skip) -> tuple[np.ndarray, np.ndarray]:
@@ -71,13 +93,28 @@ def solve_2x2(m: Entries, b1, b2, skip) -> tuple[np.ndarray, np.ndarray]:
     return (m11 * b1 - m01 * b2) / det, (m00 * b2 - m10 * b1) / det
 
 
+def solve_at_poses(m: Entries, b1, b2, theta1, theta2, min_sin_delta: float = SINGULAR_SIN_DELTA):
+    """Solve M x = b at poses [rad] with the singularity predicate: ``(x1, x2, singular)``.
+
+    ``singular`` is :func:`sailforce.kinematics.is_singular` of sin(theta1 -
+    theta2), or a map that cannot be inverted there; x is NaN where it is set.
+    The force inversion of a sensing map that is not a calibration's (a
+    physics fit's frame map, for one) goes through here.
+    """
+    theta1, theta2 = np.asarray(theta1, dtype=float), np.asarray(theta2, dtype=float)
+    singular = is_singular(sin_delta_from_trig(np.sin(theta1), np.cos(theta1), np.sin(theta2), np.cos(theta2)), min_sin_delta)
+    x1, x2 = solve_2x2(m, b1, b2, singular)
+    singular = singular | np.isnan(x1) & np.isfinite(b1) & np.isfinite(b2)
+    return x1, x2, singular
+
+
 def backend() -> str:
     """The back-end in use: ``"compiled"`` or ``"numpy"``."""
     global _chosen
     if _chosen is None:
         wanted = os.environ.get(BACKEND_ENV, "").strip().lower() or None
         if wanted is not None and wanted not in BACKENDS:
-            raise SailError(f"{BACKEND_ENV}={wanted!r}: expected one of {', '.join(BACKENDS)}")
+            raise InputError(f"{BACKEND_ENV}={wanted!r}: expected one of {', '.join(BACKENDS)}")
         _chosen = "compiled" if wanted != "numpy" and _load_compiled(required=wanted == "compiled") else "numpy"
     return _chosen
 
@@ -90,7 +127,7 @@ def use_backend(name: str) -> Iterator[None]:
     """
     global _chosen
     if name not in BACKENDS:
-        raise SailError(f"kernel back-end {name!r}: expected one of {', '.join(BACKENDS)}")
+        raise InputError(f"kernel back-end {name!r}: expected one of {', '.join(BACKENDS)}")
     previous = _chosen  # None: chosen again on first use, without importing numba to switch to numpy
     if name == "compiled":
         _load_compiled(required=True)
@@ -109,7 +146,7 @@ def prefer_backend(name: str) -> None:
     """
     global _chosen
     if name not in BACKENDS:
-        raise SailError(f"kernel back-end {name!r}: expected one of {', '.join(BACKENDS)}")
+        raise InputError(f"kernel back-end {name!r}: expected one of {', '.join(BACKENDS)}")
     if not os.environ.get(BACKEND_ENV, "").strip():
         _chosen = name if name == "numpy" or _load_compiled(required=False) else "numpy"
 
@@ -126,7 +163,7 @@ def _load_compiled(required: bool) -> bool:
             from . import _compiled as module
         except ImportError as exc:
             if required:
-                raise SailError(f"the compiled kernel needs numba, which does not import here ({exc}); "
+                raise MissingExtraError(f"the compiled kernel needs numba, which does not import here ({exc}); "
                                 f"install it (pip install numba) or set {BACKEND_ENV}=numpy") from None  # fmt: skip
             return False
         _module = module

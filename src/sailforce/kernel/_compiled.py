@@ -1,4 +1,4 @@
-"""The force kernel compiled by numba: the arithmetic of :mod:`sailforce.kernel.numpy_path`, one pose at a time.
+"""The force kernel compiled by numba: the arithmetic of the numpy path (:mod:`sailforce.kernel`), one pose at a time.
 
 Imported only when numba is installed (:mod:`sailforce.kernel` falls back to
 numpy otherwise).  Every function releases the GIL (``nogil``), so the
@@ -21,8 +21,12 @@ import math
 import numpy as np
 from numba import njit
 
+from ..kinematics import transposed_jacobian_entries
 from ..status import EXTRAPOLATED, INVALID, OK, SATURATED, SINGULAR
 from .verdict import NEAR, VERDICT_BAND
+
+#: J^T, compiled from the one Python definition (seed Eqs. 3, 4, 7).
+_transposed_jacobian = njit(inline="always", nogil=True, cache=True)(transposed_jacobian_entries)
 
 # x = k pi/2 + r with |r| <= pi/4 (Cody and Waite): pi/2 in three parts of 33 significant bits, so k P1 and
 # k P2 are exact for |k| < 2^20, |x| < 1.6e6 rad.
@@ -90,7 +94,7 @@ def force_from_torques(l2, l3, theta1, theta2, t1, t2, min_sin_delta, fx, fy, si
         s2, c2 = sincos(theta2[i])
         sd = s1 * c2 - c1 * s2  # det J^T = -l2 l3 sin(delta) (seed Eq. 9)
         singular[i] = _verdict(sd, min_sin_delta, in_range(theta1[i]) & in_range(theta2[i]))
-        j00, j01, j10, j11 = -l3 * s1, l3 * c1, -l2 * s2, l2 * c2  # J^T (seed Eqs. 3, 4, 7)
+        j00, j01, j10, j11 = _transposed_jacobian(l2, l3, s1, c1, s2, c2)
         det = j00 * j11 - j01 * j10
         gx = (j11 * t1[i] - j01 * t2[i]) / det  # Cramer's rule (seed Eq. 8)
         gy = (j00 * t2[i] - j10 * t1[i]) / det
@@ -117,7 +121,7 @@ def estimate_matrix(l2, l3, coefficients, cheb_lo, cheb_hi, offsets, capacity, d
     for i in range(n):  # J^T (seed Eqs. 3, 4, 7), the singular verdict, the Chebyshev argument
         sn1, cs1 = sincos(theta1[i])
         sn2, cs2 = sincos(theta2[i])
-        jt[0, i], jt[1, i], jt[2, i], jt[3, i] = -l3 * sn1, l3 * cs1, -l2 * sn2, l2 * cs2
+        jt[0, i], jt[1, i], jt[2, i], jt[3, i] = _transposed_jacobian(l2, l3, sn1, cs1, sn2, cs2)
         flag[i] = _verdict(sn1 * cs2 - cs1 * sn2, min_sin_delta, in_range(theta1[i]) & in_range(theta2[i]))
         x[i] = (2.0 * (theta1[i] - theta2[i]) - (cheb_lo + cheb_hi)) / (cheb_hi - cheb_lo)
 

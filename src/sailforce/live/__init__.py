@@ -8,3 +8,15 @@
 - :mod:`sailforce.live.server`: the page, its WebSocket and its token-guarded commands (aiohttp);
 - :mod:`sailforce.live.lsl`: Lab Streaming Layer outlets and inlets (pylsl).
 """
+
+from .._lazy import lazy_exports
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "sources": ("from_header", "gathered", "replay", "serial_lines", "simulated_arm", "stamped", "stdin_lines"),
+    "pipeline": ("LivePipeline", "Rows", "StampedLines"),
+    "recorder": ("Recorder",),
+    "state": ("LiveState",),
+    "server": ("HostPolicy", "LiveServer"),
+    "lsl": ("Outlet", "inlet_blocks"),
+    "browser": ("browser_page", "cpu_seconds", "latencies_ms", "live_process", "system_chromium"),
+})

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import ToolError
 
 #: Names the system's Chromium goes by.
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
@@ -78,7 +78,7 @@ def live_process(args: list[str], *, cwd: str | Path | None = None) -> Iterator[
             except queue.Empty:
                 if process.poll() is not None or time.monotonic() > deadline:
                     time.sleep(0.2)  # the rest of its stderr
-                    raise SailError(f"sail live did not start serving: {''.join(stderr).strip()}") from None
+                    raise ToolError(f"sail live did not start serving: {''.join(stderr).strip()}") from None
                 continue
             if match := _SERVING.search(line):
                 break
@@ -98,7 +98,7 @@ def browser_page(url: str, *, width: int = 1200, height: int = 900):
     """The page at ``url`` in the system's Chromium (headless), through Playwright's sync API."""
     executable = system_chromium()
     if executable is None:
-        raise SailError("no Chromium on this machine: `make chromium` installs Debian's (apt-get install chromium)")
+        raise ToolError("no Chromium on this machine: `make chromium` installs Debian's (apt-get install chromium)")
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as playwright:

@@ -3,7 +3,7 @@
 - **Outlet** (``--lsl-out NAME``): one stream of type ``Force``, irregular
   rate, ``double64``, channels ``fx_N, fy_N, force_N, angle_deg, status``.
   A row without a force (singular, invalid) sends NaN for it.  ``status`` is
-  the code of :data:`sailforce.calibration.estimator.STATUS_NAMES`, whose
+  the code of :data:`sailforce.estimate.estimator.STATUS_NAMES`, whose
   names the stream's description lists (``desc/status_codes``), so
   LabRecorder's XDF files carry them.  Each sample is stamped with its
   reading's time, on LSL's clock.
@@ -22,8 +22,8 @@ from collections.abc import Iterator
 import numpy as np
 
 from .._extras import require
-from ..calibration.estimator import STATUS_NAMES
-from ..errors import SailError
+from ..errors import InputError, ToolError
+from ..estimate.estimator import STATUS_NAMES
 from ..io.tables import READING_COLUMNS
 from .pipeline import Rows
 from .sources import Block
@@ -106,7 +106,7 @@ def inlet_blocks(name: str, *, timeout: float = RESOLVE_TIMEOUT_S) -> Iterator[B
     pylsl = _pylsl("--lsl-in")
     found = pylsl.resolve_byprop("name", name, 1, timeout)
     if not found:
-        raise SailError(f"--lsl-in {name}: no Lab Streaming Layer stream of that name answered within {timeout:g} s; "
+        raise ToolError(f"--lsl-in {name}: no Lab Streaming Layer stream of that name answered within {timeout:g} s; "
                         "is its outlet running, on this machine or this network?")  # fmt: skip
     inlet = pylsl.StreamInlet(found[0], recover=False, processing_flags=pylsl.proc_clocksync)
     info = inlet.info(timeout)
@@ -114,7 +114,7 @@ def inlet_blocks(name: str, *, timeout: float = RESOLVE_TIMEOUT_S) -> Iterator[B
     labels = _labels(info)
     if len(labels) != count or not set(READING_COLUMNS) <= set(labels):
         if count not in (len(READING_COLUMNS), len(INLET_COLUMNS)):
-            raise SailError(f"--lsl-in {name}: {count} channels labelled {', '.join(labels) or '(none)'}; expected "
+            raise InputError(f"--lsl-in {name}: {count} channels labelled {', '.join(labels) or '(none)'}; expected "
                             f"{', '.join(INLET_COLUMNS)} (t_s optional), labelled or in that order")  # fmt: skip
         labels = list(INLET_COLUMNS[:count])
     stamp_column = "t_s" not in labels

@@ -2,7 +2,7 @@
 
 :class:`LivePipeline` reads a source (:mod:`sailforce.live.sources`) on one
 thread into a bounded queue, and estimates on another with
-:func:`sailforce.calibration.streaming.estimate_lines`, the very code of
+:func:`sailforce.stream.pipeline.estimate_lines`, the very code of
 ``sail estimate -``: the same lines give the same rows, the same statuses,
 the same filter and the same dynamic term.  Every row goes, as numbers, to
 the listeners (the page's state, a Lab Streaming Layer outlet) and, as the
@@ -27,13 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..calibration.estimator import STATUS_NAMES
 from ..calibration.file import Calibration
-from ..calibration.filters import LowPass
-from ..calibration.streaming import estimate_lines
 from ..calibration.tare import Tare, tare
-from ..errors import SailError
+from ..errors import InputError, SailError
+from ..estimate.estimator import STATUS_NAMES
+from ..estimate.filters import LowPass
 from ..io.tables import Chunk, TableError
+from ..status import count_statuses
+from ..stream.pipeline import estimate_lines
 from .recorder import Recorder
 from .sources import Block
 
@@ -60,7 +61,7 @@ class Rows:
     stamps: np.ndarray  #: ``(n,)`` wall-clock time of each reading [s]
     values: dict[str, np.ndarray]  #: the input's numbers: theta1_deg, theta2_deg, load1, load2 (and t_s, rates ...)
     columns: dict[str, np.ndarray]  #: fx_N, fy_N, force_N, angle_deg (and inertial1, inertial2)
-    status: np.ndarray  #: ``(n,)`` status codes, :data:`sailforce.calibration.estimator.STATUS_NAMES`
+    status: np.ndarray  #: ``(n,)`` status codes, :data:`sailforce.estimate.estimator.STATUS_NAMES`
 
     def __len__(self) -> int:
         return self.status.size
@@ -210,14 +211,14 @@ class LivePipeline:
                 return done
             self._tare = (int(samples), [], done)
         if self.ended.is_set():
-            self._finish_tare(SailError("the stream has ended: there are no samples to tare on"))
+            self._finish_tare(InputError("the stream has ended: there are no samples to tare on"))
         return done
 
     def cancel_tare(self) -> bool:
         """Stop the tare under way, if any (its future gets an error; the offsets stay); whether one was."""
         with self._lock:
             running = self._tare is not None
-        self._finish_tare(SailError("the tare was cancelled; the offsets are unchanged"))
+        self._finish_tare(InputError("the tare was cancelled; the offsets are unchanged"))
         return running
 
     # -- the threads ----------------------------------------------------------------------------
@@ -289,13 +290,13 @@ class LivePipeline:
                 log.error("the live estimate stopped: %s", exc)
                 self.error = self.error or exc
         finally:
-            self._finish_tare(SailError("the stream ended before the tare had its samples"))
+            self._finish_tare(InputError("the stream ended before the tare had its samples"))
             self.ended.set()
 
     def _on_rows(self, chunk: Chunk, columns: dict[str, np.ndarray], status: np.ndarray) -> None:
         rows = rows_of(self._stamps, chunk, columns, status)
         self.rows += len(rows)
-        self.counts += np.bincount(status, minlength=len(STATUS_NAMES))
+        self.counts += count_statuses(status)
         self._collect_tare(rows)
         for listener in self._listeners:
             try:

@@ -27,7 +27,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from ..errors import SailError
+from ..errors import InputError, RecordingError
 from ..io.files import atomic_writer
 
 RECORD_FORMATS = ("csv", "parquet")
@@ -35,9 +35,6 @@ RECORD_FORMATS = ("csv", "parquet")
 #: Names tried for a recording made in the same second as another, before giving up.
 MAX_NAME_TRIES = 1000
 
-
-class RecordingError(SailError):
-    """A recording that could not be finished as asked (its CSV is kept)."""
 
 
 def fresh_file(directory: Path, stem: str, suffix: str) -> tuple[Path, int]:
@@ -57,7 +54,7 @@ class Recorder:
 
     def __init__(self, directory: Path, header: bytes, fmt: str = "csv") -> None:
         if fmt not in RECORD_FORMATS:
-            raise ValueError(f"record format {fmt!r}: expected one of {', '.join(RECORD_FORMATS)}")
+            raise InputError(f"record format {fmt!r}: expected one of {', '.join(RECORD_FORMATS)}")
         self.format = fmt
         self.started = time.time()
         stem = "sail-live-" + time.strftime("%Y%m%d-%H%M%S", time.localtime(self.started))

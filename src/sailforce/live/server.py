@@ -53,9 +53,9 @@ from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
-from ..calibration.estimator import STATUS_NAMES
 from ..calibration.tare import Tare
-from ..errors import SailError
+from ..errors import CommandError, InputError, SailError, ToolError
+from ..estimate.estimator import STATUS_NAMES
 from .pipeline import LivePipeline
 from .recorder import Recorder, fresh_file
 from .state import HISTORY_S, LiveState
@@ -97,9 +97,6 @@ LOG_BURST, LOG_PERIOD_S = 10, 10.0
 #: Names that reach only this machine.
 LOOPBACK_NAMES = frozenset({"localhost", "localhost.localdomain", "ip6-localhost", "ip6-loopback"})
 
-
-class CommandError(SailError):
-    """A command the server cannot carry out; its message goes back to the page."""
 
 
 def _address(name: str) -> ipaddress.IPv4Address | ipaddress.IPv6Address | None:
@@ -323,10 +320,10 @@ class LiveServer:
         try:
             message = json.loads(text)
             if not isinstance(message, dict) or message.get("type") != "command":
-                raise ValueError("not a command")
+                raise InputError("not a command")
             name = message.get("name")
             if name not in COMMANDS:
-                raise ValueError(f"no command {name!r}")
+                raise InputError(f"no command {name!r}")
         except (ValueError, TypeError, RecursionError) as exc:
             reason = "nested too deeply" if isinstance(exc, RecursionError) else exc
             self._refusals.warning("ignored a malformed WebSocket message from %s (%s): %.200r", peer, reason, text)
@@ -417,7 +414,7 @@ class LiveServer:
         try:
             body = await request.json() if request.can_read_body else {}
             if not isinstance(body, dict):
-                raise ValueError("not a JSON object")
+                raise InputError("not a JSON object")
         except web.HTTPRequestEntityTooLarge:
             return web.json_response({"ok": False, "error": f"the body is over {MAX_MESSAGE_BYTES} bytes"}, status=413)
         except RecursionError:
@@ -509,7 +506,7 @@ async def serve(server: LiveServer, host: str, port: int, on_ready) -> None:
         try:
             await site.start()
         except OSError as exc:
-            raise SailError(f"cannot serve on {host}:{port} ({exc.strerror or exc}); is another `sail live` running? "
+            raise ToolError(f"cannot serve on {host}:{port} ({exc.strerror or exc}); is another `sail live` running? "
                             "Give another --port (0 picks a free one)") from None  # fmt: skip
         bound = runner.addresses[0]
         shown = f"[{bound[0]}]" if ":" in str(bound[0]) else bound[0]

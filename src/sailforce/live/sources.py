@@ -25,7 +25,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import InputError
 from ..io.tables import READING_COLUMNS, TableError, read_header, read_line
 from ..motion.reaching import reaching, record
 from ..robot import Robot
@@ -77,7 +77,7 @@ def replay(path: Path, *, speed: float = 1.0, rate_hz: float | None = None) -> I
     gives it its status.
     """
     if not speed > 0 or not math.isfinite(speed):
-        raise SailError(f"--speed {speed:g}: a replay speed is a positive number (1 is real time)")
+        raise InputError(f"--speed {speed:g}: a replay speed is a positive number (1 is real time)")
     try:
         stream = open(path, "rb")
     except OSError as exc:

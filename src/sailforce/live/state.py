@@ -18,9 +18,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..calibration.estimator import STATUS_NAMES
 from ..calibration.file import Calibration
+from ..estimate.estimator import STATUS_NAMES
 from ..kinematics import joint_positions
+from ..status import count_statuses
 from .pipeline import Rows
 
 #: The time plots span this much of the past [s].
@@ -66,7 +67,7 @@ class LiveState:
         now = time.time()
         with self._lock:
             self.latest = self._row(rows, -1)
-            self.counts += np.bincount(rows.status, minlength=len(STATUS_NAMES))
+            self.counts += count_statuses(rows.status)
             for i in first:
                 self._history.append((self._next_point, float(rows.stamps[i]), _number(fx[i]), _number(fy[i]),
                                       _number(force[i])))  # fmt: skip

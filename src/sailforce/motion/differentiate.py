@@ -32,14 +32,13 @@ and callers mark it.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
-from .._blocks import for_each_block
-from ..errors import SailError
+from .._blocks import THREADS, for_each_block
+from ..errors import MotionDataError
 
 #: A time step longer than this many median steps is a gap: the recording stopped, or samples were lost.
 GAP_FACTOR = 3.0
@@ -53,7 +52,6 @@ FIT_BLOCK = 4096
 
 #: Windows per block of the fixed-coefficient filter, run on :data:`THREADS` threads (numpy's loops release the GIL).
 UNIFORM_BLOCK = 1 << 16
-THREADS = min(2, os.cpu_count() or 1)
 
 #: Valid time steps whose median sets the sampling period of a stream whose rate is not given.
 PROBE_STEPS = 64
@@ -69,9 +67,6 @@ MAX_JOINT_ACCEL = 3000.0
 #: or it follows the encoder quantization instead of the motion.
 MIN_WINDOW_MARGIN = 3
 
-
-class MotionDataError(SailError):
-    """Timestamps or angles that no rate can be derived from."""
 
 
 @dataclass(frozen=True)
@@ -184,7 +179,7 @@ class RatePlan:
 
     Each sample's values depend on its own window alone, so a block of rows
     needs only the samples half a window either side of it.  The offline
-    estimate (:func:`sailforce.calibration.inertial.estimate_moving`) computes each
+    estimate (:func:`sailforce.estimate.dynamic.estimate_moving`) computes each
     block's rates in the thread that then estimates the block's forces,
     while they are still in the cache.  ``dt`` is ``None`` when no
     sampling period can be found (no two valid samples in a row): every

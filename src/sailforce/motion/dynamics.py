@@ -48,7 +48,7 @@ from dataclasses import astuple, dataclass, fields
 import numpy as np
 
 from .._validate import as_float_arrays
-from ..errors import SailError
+from ..errors import DynamicsError
 from ..kinematics import Links
 
 BODIES = ("outer1", "outer2", "l4", "l3")
@@ -62,9 +62,6 @@ PARAMETERS = INERTIAL_PARAMETERS + GRAVITY_PARAMETERS
 #: the regressor's entries are O(1) in SI for arm-sized motions, and rounding leaves ~1e-15 relative.
 RANK_RTOL = 1e-9
 
-
-class DynamicsError(SailError):
-    """Inertial parameters or motion data that the dynamics cannot use."""
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import kernel
 from ..kinematics import forward, inverse, jacobian
 from ..robot import Robot
 from ..synthetic import HX711_COUNTS_PER_MV_V, NoiseModel
@@ -80,12 +81,12 @@ def reaching(robot: Robot, *, reach: float = 0.3, reaches: int = 8, peak_speed: 
     t = np.arange(x.shape[0]) * dt
     theta1, theta2 = inverse(arm, x[:, 0], x[:, 1])
     q = np.unwrap(np.column_stack([theta1, theta2]), axis=0)
-    J = jacobian(arm, q[:, 0], q[:, 1])
-    qd = np.linalg.solve(J, xd[..., None])[..., 0]
+    J = kernel.entries(jacobian(arm, q[:, 0], q[:, 1]))
+    qd = np.column_stack(kernel.solve_2x2(J, xd[:, 0], xd[:, 1], False))
     c, s = np.cos(q), np.sin(q)
     jd_qd = np.column_stack([-arm.l3 * c[:, 0] * qd[:, 0] ** 2 - arm.l2 * c[:, 1] * qd[:, 1] ** 2,
                              -arm.l3 * s[:, 0] * qd[:, 0] ** 2 - arm.l2 * s[:, 1] * qd[:, 1] ** 2])  # fmt: skip
-    qdd = np.linalg.solve(J, (xdd - jd_qd)[..., None])[..., 0]
+    qdd = np.column_stack(kernel.solve_2x2(J, *(xdd - jd_qd).T, False))
     return JointMotion(t, q, qd, qdd, np.ascontiguousarray(target))
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from .. import __version__
+from .._version import __version__
 from ..design.study import Design
 from ..fem.model import MEMBERS, build_model, node_positions
 from ..io.files import atomic_writer, write_figure, write_json

@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 from markdown_it import MarkdownIt
 
-from .. import __version__
-from ..calibration.regressors import fit_polynomial
+from .._version import __version__
 from ..io.files import atomic_writer
 from ..kinematics import SINGULAR_SIN_DELTA
 from ..materials import CARBON_STEEL, SEED_TABLE2_SHEAR_MODULUS
-from ..seed_model import SeedModelResult, phase_pattern
-from ..study import ModelId, Protocol, StudyResult, span_deg
+from ..paper.seed_model import SeedModelResult, phase_pattern
+from ..paper.study import ModelId, Protocol, StudyResult, span_deg
+from ..sensing.polynomial import fit_polynomial
 from .labels import links_label, markdown_table, model_label
 from .results import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
 

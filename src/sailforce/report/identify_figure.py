@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..identify import Identification, ReadingsTarget, Table4Target
-from ..study import table4
+from ..fit.identify import Identification, ReadingsTarget
+from ..paper.study import table4
+from ..paper.table4_fit import Table4Target
 
 
 def identify_figure(fit: Identification, target: Table4Target | ReadingsTarget, start_table: np.ndarray | None = None) -> Figure:

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from ..paper.study import ModelId, Protocol, span_deg
 from ..robot import LINK_NAMES, Robot
-from ..study import ModelId, Protocol, span_deg
 
 
 def markdown_table(header: list[str], rows: list[list[str]]) -> str:
@@ -22,7 +22,7 @@ def links_label(robot: Robot) -> str:
     return "links " + "; ".join(f"{n} {one(robot.section(n), robot.material(n))}" for n in LINK_NAMES)
 
 
-#: The models' display colours, one per :class:`~sailforce.study.ModelId`.
+#: The models' display colours, one per :class:`~sailforce.paper.study.ModelId`.
 MODEL_COLOURS = {
     ModelId.UNCOMPENSATED: "tab:red",
     ModelId.SEED: "tab:blue",

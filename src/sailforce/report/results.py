@@ -2,28 +2,24 @@
 
 from __future__ import annotations
 
-import csv
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from ..io.files import atomic_writer, write_json
-from ..seed import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4  # noqa: F401  (re-exported: the report's seed values)
-from ..study import TABLE4_COLUMNS, StudyResult
+from .._version import __version__
+from ..io.files import write_json, write_numeric_table
+from ..paper.seed import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4  # noqa: F401  (re-exported: the report's seed values)
+from ..paper.study import TABLE4_COLUMNS, TABLE4_FORMAT, StudyResult
 
 
 def write_table4(path: Path, table: np.ndarray) -> None:
     """``table4.csv``: delta_deg, amplitude_1, phase_1_deg, amplitude_2, phase_2_deg."""
-    with atomic_writer(path) as stream:
-        writer = csv.writer(stream, lineterminator="\n")
-        writer.writerow(TABLE4_COLUMNS)
-        writer.writerows([[f"{v:.10g}" for v in row] for row in table])
+    write_numeric_table(path, TABLE4_COLUMNS, table, csv_format=TABLE4_FORMAT)
 
 
 def results_dict(result: StudyResult) -> dict[str, object]:
-    """The content of ``results.json`` (issue 4, item 1f, plus what goes beyond the seed)."""
+    """The content of ``results.json`` (the seed's results, plus what goes beyond the seed)."""
     amplitude = result.torque_amplitude
     return {
         "software": f"sailforce {__version__}",

@@ -8,11 +8,18 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..identify import get_parameter
+from ..fit.identify import get_parameter
 from ..io.files import write_figure, write_json
-from ..seed import SEED_PRESCALE, SEED_RMSE
-from ..seed_model import TARGET_PHASE_RMS_DEG, TARGET_SHAPE_RMS, FamilyFit, SeedModelResult, interior_minimum, shape
-from ..study import StudyResult, table4
+from ..paper.seed import SEED_PRESCALE, SEED_RMSE
+from ..paper.seed_model import (
+    TARGET_PHASE_RMS_DEG,
+    TARGET_SHAPE_RMS,
+    FamilyFit,
+    SeedModelResult,
+    interior_minimum,
+    shape,
+)
+from ..paper.study import StudyResult, table4
 from .labels import markdown_table
 
 
@@ -110,7 +117,7 @@ def seed_model_section(result: SeedModelResult, main: StudyResult) -> str:
 
 
 def _seed() -> np.ndarray:
-    from ..seed import seed_table4
+    from ..paper.seed import seed_table4
 
     return seed_table4()
 
@@ -201,7 +208,7 @@ def _yes(flag: bool) -> str:
 
 
 def _pattern_words(table: np.ndarray) -> str:
-    from ..seed_model import phase_pattern
+    from ..paper.seed_model import phase_pattern
 
     p = phase_pattern(table)
     return (f"P1 {_sign(p.signs[0])}, P2 {_sign(p.signs[1])}; opposite signs {_yes(p.opposite_signs)}, growing with Δ "

@@ -10,6 +10,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
+from ..errors import InputError
 from ..solid.arm import SolidResponse
 from .stress_figure import panel_label
 
@@ -27,7 +28,7 @@ def von_mises(stresses: np.ndarray, fx, fy) -> np.ndarray:
 def solid_stress_figure(response: SolidResponse, phi: np.ndarray, force: float, title: str = "") -> Figure:
     """One panel per force angle: the solid's elements coloured by von Mises stress [MPa] on one shared scale."""
     if response.stresses is None or response.triangles is None:
-        raise ValueError("the response holds no stresses: solve the pose with stresses=True")
+        raise InputError("the response holds no stresses: solve the pose with stresses=True")
     fields = [von_mises(response.stresses, force * np.cos(p), force * np.sin(p)) / 1e6 for p in phi]
     top = max(float(np.percentile(f, 99.5)) for f in fields)  # a pin hole's rim spikes; the scale shows the arm
     rows = -(-len(phi) // COLUMNS)
@@ -72,16 +73,14 @@ def readings_figure(phi: np.ndarray, solid: dict[str, np.ndarray], frame: dict[s
 
 def write_table4_comparison(directory, tables: dict[str, np.ndarray], dpi: int) -> None:
     """``table4_comparison.csv`` (delta, then each source's four columns) and ``table4.png`` into ``directory``."""
-    from ..io.files import atomic_writer
-    from ..study import TABLE4_COLUMNS
+    from ..io.files import write_figure, write_numeric_table
+    from ..paper.study import TABLE4_COLUMNS
 
     head = [TABLE4_COLUMNS[0]] + [f"{c}_{name}" for name in tables for c in TABLE4_COLUMNS[1:]]
     delta = next(iter(tables.values()))[:, :1]
-    with atomic_writer(directory / "table4_comparison.csv") as stream:
-        stream.write(",".join(head) + "\n")
-        np.savetxt(stream, np.column_stack([delta] + [t[:, 1:] for t in tables.values()]), fmt="%.8g", delimiter=",")
-    with atomic_writer(directory / "table4.png", "wb") as stream:
-        table4_figure(tables).savefig(stream, format="png", dpi=dpi)
+    write_numeric_table(directory / "table4_comparison.csv", head, np.column_stack([delta] + [t[:, 1:] for t in tables.values()]),
+                        csv_format="%.8g")  # fmt: skip
+    write_figure(directory / "table4.png", table4_figure(tables), dpi=dpi)
 
 
 def table4_figure(tables: dict[str, np.ndarray]) -> Figure:

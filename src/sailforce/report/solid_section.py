@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..calibration.compensation import torque_rows
 from ..robot import Robot
+from ..sensing.maps import torque_rows
 from ..solid.sweep import SweepResult
 from .labels import markdown_table
 

@@ -11,6 +11,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
+from ..errors import InputError
 from ..fem.model import MEMBERS, node_positions
 from ..fem.response import ArmResponse, member_stresses
 
@@ -38,7 +39,7 @@ def stress_figure(response: ArmResponse, phi, force: float, title: str = "") -> 
     """
     phi = np.atleast_1d(np.asarray(phi, dtype=float))
     if phi.size > MAX_PANELS:
-        raise ValueError(f"{phi.size} force angles: at most {MAX_PANELS} panels fit a figure")
+        raise InputError(f"{phi.size} force angles: at most {MAX_PANELS} panels fit a figure")
     theta1, theta2 = float(response.theta1), float(response.theta2)
     positions = node_positions(response.model, theta1, theta2)
     mpa = [

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..study import Curves, StudyResult
+from ..paper.study import Curves, StudyResult
 from .labels import MODEL_COLOURS, model_label
 
 SEED_STYLE = {"color": "0.35", "linestyle": "--", "marker": "s", "markersize": 3}  #: the seed's published values

@@ -1,4 +1,4 @@
-"""The arm as a solid: a gmsh mesh solved by CalculiX, to check the frame model and to fit its load cell (issue 13).
+"""The arm as a solid: a gmsh mesh solved by CalculiX, to check the frame model and to fit its load cell.
 
 - :mod:`~sailforce.solid.layout`: the arm as plane parts, holes and cell faces;
 - :mod:`~sailforce.solid.mesh`: gmsh meshes of a layout;

@@ -31,7 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import InputError
+from ..kinematics import forward
 from ..robot import Robot
 from .ccx import Block, Deck, Step, run_ccx, select
 from .layout import HANDLE_RIM, HOLE_FRACTION, JOINT_RIMS, MOTOR_RIMS, arm_layout, hole_radius
@@ -86,7 +87,7 @@ def check_joints(robot: Robot) -> None:
     for name, _, _ in JOINT_RIMS:
         model = robot.joints.at(name).model
         if model not in SOLID_JOINTS:
-            raise SailError(f"joint {name} is {model!r}: the solid model offers {' and '.join(SOLID_JOINTS)} joints; "
+            raise InputError(f"joint {name} is {model!r}: the solid model offers {' and '.join(SOLID_JOINTS)} joints; "
                             "use --joints pin or --joints bonded")  # fmt: skip
 
 
@@ -134,8 +135,7 @@ def solve_pose(robot: Robot, theta1: float, theta2: float, *, cell_depth: float,
             near, far = (_mean(select(blocks, "displacements", f"C{i + 1}{side}", j + 1)) @ normal for side in "AB")
             deflection[i, j] = far
             relative[i, j] = far - near
-    a = np.array([robot.arm.l2 * math.cos(theta2) + robot.arm.l3 * math.cos(theta1),
-                  robot.arm.l2 * math.sin(theta2) + robot.arm.l3 * math.sin(theta1)])  # fmt: skip
+    a = np.array(forward(robot.arm, theta1, theta2), dtype=float)  # the end effector A (seed Eq. 1)
     moment = np.array([-a[1], a[0]])  # A x (1, 0) and A x (0, 1)
     balance = np.abs(torques.sum(axis=0) - moment)
     field = triangles = None

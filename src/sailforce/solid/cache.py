@@ -27,6 +27,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..errors import CacheEntryError
+
 #: The ``format`` field of every entry.
 ENTRY_FORMAT = "sailforce-solid-cache"
 
@@ -46,10 +48,6 @@ def cache_key(inputs: dict) -> str:
     return hashlib.sha256(_canonical(inputs)).hexdigest()
 
 
-class DamagedEntry(ValueError):
-    """A cache entry that cannot be trusted; its message says why."""
-
-
 @dataclass
 class SolidCache:
     """The cache folder (None: no cache), and the notes for people about what it did (damaged, unwritable)."""
@@ -67,7 +65,7 @@ class SolidCache:
         try:
             value = remembered if remembered is not None else _read_entry(path, key, inputs)
             return None if value is None else check(value)
-        except (DamagedEntry, ValueError, KeyError, TypeError, IndexError, OSError) as exc:
+        except (CacheEntryError, ValueError, KeyError, TypeError, IndexError, OSError) as exc:
             self.notes.append(f"cache entry {path} is damaged ({exc}); solved again")
             return None
 
@@ -94,35 +92,35 @@ def _read_entry(path: Path, key: str, inputs: dict) -> dict | None:
         return None
     except OSError as exc:
         if os.path.islink(path):
-            raise DamagedEntry("it is a symlink, which the cache never follows") from None
-        raise DamagedEntry(exc.strerror or str(exc)) from None
+            raise CacheEntryError("it is a symlink, which the cache never follows") from None
+        raise CacheEntryError(exc.strerror or str(exc)) from None
     info = os.fstat(handle)
     if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_ENTRY_BYTES:
         os.close(handle)
-        raise DamagedEntry("not a regular file" if not stat.S_ISREG(info.st_mode) else f"{info.st_size} bytes, larger than any entry")
+        raise CacheEntryError("not a regular file" if not stat.S_ISREG(info.st_mode) else f"{info.st_size} bytes, larger than any entry")
     with os.fdopen(handle, "rb") as stream:
         data = stream.read(MAX_ENTRY_BYTES + 1)
     try:
         entry = json.loads(data)
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-        raise DamagedEntry(f"not JSON: {exc}") from None
+        raise CacheEntryError(f"not JSON: {exc}") from None
     if not isinstance(entry, dict) or entry.get("format") != ENTRY_FORMAT:
-        raise DamagedEntry("not a sailforce solid cache entry")
+        raise CacheEntryError("not a sailforce solid cache entry")
     claimed = entry.pop("sha256", None)
     try:
         actual = hashlib.sha256(_canonical(entry)).hexdigest()
     except (TypeError, ValueError) as exc:
-        raise DamagedEntry(f"content a cache entry cannot hold ({exc})") from None
+        raise CacheEntryError(f"content a cache entry cannot hold ({exc})") from None
     if claimed != actual:
-        raise DamagedEntry("its checksum does not match its content")
+        raise CacheEntryError("its checksum does not match its content")
     stored = entry.get("inputs")
     if entry.get("key") != key or not isinstance(stored, dict) or cache_key(stored) != key:
-        raise DamagedEntry("its key is not its name's")
+        raise CacheEntryError("its key is not its name's")
     if entry["inputs"] != inputs:
-        raise DamagedEntry("it answers another request")
+        raise CacheEntryError("it answers another request")
     value = entry.get("value")
     if not isinstance(value, dict):
-        raise DamagedEntry("no value")
+        raise CacheEntryError("no value")
     return value
 
 

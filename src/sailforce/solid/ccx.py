@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import SolverError
 from .mesh import Mesh
 
 #: The CalculiX binary: $SAIL_CCX, else the first of these on PATH.
@@ -34,9 +34,6 @@ CCX_TIMEOUT_S = 1800
 INSTALL_HINT = ("CalculiX is not installed: `make install-ccx` (Debian: apt-get install calculix-ccx) or set SAIL_CCX to "
                 "the ccx binary")  # fmt: skip
 
-
-class SolverError(SailError):
-    """CalculiX is missing, refused the deck, or failed to solve it."""
 
 
 def ccx_binary() -> str:

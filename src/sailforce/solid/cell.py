@@ -11,7 +11,7 @@ ccx solve corrects it by d <- d (delta / delta_cap)^(1/3) until it holds within
 
 **In-situ compliance** (:func:`fit_compliance`).  In the arm the cell is not
 clamped: its faces are bonded to link bars far deeper than itself, and the bar
-around each junction yields too (issue 13: the solid's readings then differ
+around each junction yields too (the solid's readings then differ
 from the datasheet beam by -20 % to +35 %).  A solid of the cell between two
 link stubs, the near stub's root clamped, is loaded at the far stub's tip by a
 shear V and a moment M.  The tip's (v, r) per (V, M) is the chain
@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import SailError
+from ..errors import ToolError
 from ..loadcell import LoadCell
 from ..robot import Robot
 from .ccx import Deck, Step, run_ccx, select
@@ -65,7 +65,7 @@ def calibrate_depth(cell: LoadCell, mesh_size: float) -> CellDepth:
         if abs(achieved / target - 1.0) < DEPTH_RTOL:
             return CellDepth(depth, achieved, target, solve)
         depth *= (achieved / target) ** (1.0 / 3.0)
-    raise SailError(f"the load cell's depth did not settle within {DEPTH_ITERATIONS} solves "
+    raise ToolError(f"the load cell's depth did not settle within {DEPTH_ITERATIONS} solves "
                     f"(last {depth * 1e3:.4g} mm gives {achieved * 1e3:.4g} mm, not {target * 1e3:.4g} mm)")  # fmt: skip
 
 

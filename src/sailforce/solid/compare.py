@@ -15,6 +15,7 @@ import numpy as np
 
 from ..fem.response import ArmResponse, simulate
 from ..robot import Robot
+from ..sensing.maps import torque_rows
 from .arm import SolidResponse
 
 #: The readings compared, as SolidResponse fields.
@@ -54,6 +55,17 @@ def compare(robot: Robot, solid: SolidResponse) -> dict[str, dict[str, list[floa
                      "solid_phase_deg": np.degrees(p_s).tolist(), "frame_phase_deg": np.degrees(p_f).tolist(),
                      "phase_difference_deg": difference.tolist()}  # fmt: skip
     return out
+
+
+def torque_against_jt(robot: Robot, poses, torques) -> float:
+    """The largest |T - J^T| of the solid's torques ``(n, 2, 2)`` at ``poses`` ``(n, 2)`` [rad], relative to the largest |J^T|.
+
+    For pin joints the linkage is determinate and the torques per unit force
+    are J^T itself (seed Eq. 7): this is the solid's error against statics.
+    """
+    poses = np.asarray(poses, dtype=float)
+    jt = torque_rows(robot.arm, poses[:, 0], poses[:, 1])
+    return float(np.max(np.abs(np.asarray(torques) - jt)) / np.max(np.abs(jt)))
 
 
 def curves(response: np.ndarray, phi: np.ndarray, force: float) -> np.ndarray:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..kinematics import joint_positions
 from ..materials import Material
 from ..robot import Robot
 
@@ -106,8 +107,9 @@ def arm_layout(robot: Robot, theta1: float, theta2: float, cell_depth: float) ->
         ]  # fmt: skip
         faces += [Face(f"B{i}", f"L{i}A", 0.0, h),
                   Face(f"C{i}A", f"C{i}", near, cell_depth), Face(f"C{i}B", f"C{i}", far, cell_depth)]
-    p1 = (arm.l1 * math.cos(theta1), arm.l1 * math.sin(theta1))
-    p2 = (arm.l2 * math.cos(theta2), arm.l2 * math.sin(theta2))
+    joints = joint_positions(arm, theta1, theta2)
+    p1 = (float(joints["P1"][0]), float(joints["P1"][1]))
+    p2 = (float(joints["P2"][0]), float(joints["P2"][1]))
     h3, h4 = robot.section("l3"), robot.section("l4")
     parts.append(Part("L3", "l3", p2, theta1, -END_FRACTION * h3.depth, arm.l3 + END_FRACTION * h3.depth, h3.depth,
                       h3.thickness, robot.material("l3"), 1.0,

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._extras import require
-from ..errors import SailError
+from ..errors import MeshError, SailError
 from .layout import Layout, Part
 
 #: Fewest nodes on a hole rim (corners and mid-side nodes together): enough for a round hole and an even spread.
@@ -33,9 +33,6 @@ MESH_ALGORITHM = 8
 #: Tolerance [m] on locating an interface or a rim from gmsh's geometry (a micron on a robot arm).
 LOCATE_TOL = 1e-6
 
-
-class MeshError(SailError):
-    """gmsh could not mesh the arm (a part too small for the mesh size, a hole that does not fit)."""
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..distributed import DEFAULT_RETRIES, run_tasks
+from ..errors import InputError
 from ..io.robotfile import robot_data, robot_from_data
 from ..robot import Robot
 from .arm import SolidResponse, check_joints, solve_pose
@@ -87,13 +88,13 @@ def checked_response(value: dict, task: PoseTask) -> SolidResponse:
     """A cached or solved pose's result, refused (``ValueError``) unless it is the task's pose, in shape and finite."""
     response = SolidResponse.from_dict(value)
     if (response.theta1, response.theta2) != (task.theta1, task.theta2):
-        raise ValueError(f"it holds the pose ({response.theta1!r}, {response.theta2!r}), not the one asked for")
+        raise InputError(f"it holds the pose ({response.theta1!r}, {response.theta2!r}), not the one asked for")
     for name, shape in (("torques", (2, 2)), ("deflection", (2, 2)), ("relative", (2, 2)), ("moment_balance", (2,))):
         array = getattr(response, name)
         if array.shape != shape or array.dtype.kind != "f" or not np.all(np.isfinite(array)):
-            raise ValueError(f"{name} is not a finite {shape} array")
+            raise InputError(f"{name} is not a finite {shape} array")
     if response.dofs <= 0:
-        raise ValueError(f"dofs = {response.dofs}")
+        raise InputError(f"dofs = {response.dofs}")
     return response
 
 
@@ -123,7 +124,7 @@ def _checked_depth(value: dict) -> CellDepth:
     depth = CellDepth(**value)
     lengths = (depth.depth, depth.achieved, depth.target)
     if not all(isinstance(x, float) and math.isfinite(x) and x > 0 for x in lengths) or type(depth.solves) is not int:
-        raise ValueError(f"the cell's depth, deflections and solves must be positive numbers, not {value}")
+        raise InputError(f"the cell's depth, deflections and solves must be positive numbers, not {value}")
     return depth
 
 
@@ -169,7 +170,7 @@ def run_poses(robot: Robot, poses, settings: SolidSettings = SolidSettings(), *,
     for k, outcome in zip(todo, outcomes):
         try:
             if not outcome.ok:
-                raise ValueError(outcome.error)
+                raise InputError(outcome.error)
             responses[k] = checked_response(outcome.value, tasks[k])
             cache.write(task_inputs(tasks[k]), outcome.value)
         except (ValueError, KeyError, TypeError) as exc:
@@ -195,7 +196,7 @@ def read_poses(path: Path) -> list[tuple[float, float]]:
     try:
         i, j = names.index("theta1_deg"), names.index("theta2_deg")
     except ValueError:
-        raise ValueError(f"{path}: expected columns theta1_deg and theta2_deg, found {', '.join(names)}") from None
+        raise InputError(f"{path}: expected columns theta1_deg and theta2_deg, found {', '.join(names)}") from None
     return [(math.radians(a), math.radians(b)) for a, b in table[:, [i, j]].tolist()]
 
 

@@ -118,7 +118,7 @@ void setup(void)
         const sail_reading r = read_sensors();
         sail_tare_process(&tare, &r, 1);
     }
-    if (sail_tare_finish(&tare, &cal, spread) != 0)
+    if (sail_tare_finish(&tare, &cal, spread) != SAIL_CHECK_OK)
         Serial.println("# tare failed: no HX711 readings; using the calibration's offsets");
     Serial.println("theta1_deg,theta2_deg,load1,load2,fx_N,fy_N,status");
 }

@@ -1,0 +1,67 @@
+"""Identification against a seed-style Table 4: the target, its residuals, and :func:`identify_table4`.
+
+The residuals are each cell's phase at each delta [deg] and, with
+``amplitude_weight`` > 0, each amplitude divided by its mean over delta (its
+shape, free of the signal unit) times ``amplitude_weight`` [deg per unit
+shape] (:mod:`sailforce.fit.identify`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..fit.identify import AMPLITUDE_WEIGHT, Identification, IdentifyError, _rms2, identify
+from ..robot import Robot
+from .study import Protocol, table4
+
+
+def table4_residuals(model: np.ndarray, target: np.ndarray, amplitude_weight: float = AMPLITUDE_WEIGHT) -> np.ndarray:
+    """(n, 4) residuals: both phases [deg], then both amplitude shapes times ``amplitude_weight``."""
+    if model.shape != target.shape or not np.allclose(model[:, 0], target[:, 0]):
+        raise IdentifyError(f"the target's Table 4 has delta = {target[:, 0].tolist()} deg; the protocol's sweeps "
+                            f"give {model[:, 0].tolist()}: give a Protocol with the target's grid")  # fmt: skip
+    phases = model[:, [2, 4]] - target[:, [2, 4]]
+    shape = lambda t: t[:, [1, 3]] / np.mean(t[:, [1, 3]], axis=0)
+    return np.column_stack([phases, amplitude_weight * (shape(model) - shape(target))])
+
+
+@dataclass(frozen=True)
+class Table4Target:
+    """A Table 4 to match: ``table`` ``(n, 5)`` in :data:`~sailforce.paper.study.TABLE4_COLUMNS`."""
+
+    table: np.ndarray
+    transduction: str = "deflection"
+    amplitude_weight: float = AMPLITUDE_WEIGHT
+    protocol: Protocol = field(default_factory=Protocol)
+
+    columns = ("phase 1 [deg]", "phase 2 [deg]", "shape 1 (weighted)", "shape 2 (weighted)")
+
+    def residuals(self, robot: Robot) -> np.ndarray:
+        """(n, 4) (or (n, 2), phases only, with ``amplitude_weight`` 0)."""
+        full = table4_residuals(table4(robot, self.transduction, protocol=self.protocol), self.table, self.amplitude_weight)
+        return full if self.amplitude_weight > 0 else full[:, :2]
+
+    def metrics(self, residuals: np.ndarray) -> dict[str, tuple[float, float]]:
+        out = {"phase_rms_deg": _rms2(residuals[:, :2])}
+        if self.amplitude_weight > 0:
+            out["shape_rms"] = _rms2(residuals[:, 2:] / self.amplitude_weight)
+        return out
+
+
+def identify_table4(
+    robot: Robot,
+    target: np.ndarray,
+    free: Sequence[str],
+    *,
+    transduction: str = "deflection",
+    amplitude_weight: float = AMPLITUDE_WEIGHT,
+    protocol: Protocol = Protocol(),
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    starts: int | None = None,
+) -> Identification:
+    """:func:`identify` against a Table 4 ``(n, 5)``."""
+    table = Table4Target(np.asarray(target, dtype=float), transduction, amplitude_weight, protocol)
+    return identify(robot, table, free, bounds=bounds, starts=starts)

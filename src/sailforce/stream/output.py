@@ -1,0 +1,122 @@
+"""The estimate's output: each input row with its force fields appended, as CSV bytes or as an Arrow table for Parquet.
+
+Output columns: the input's, then ``fx_N, fy_N, force_N, angle_deg,
+status``; with a dynamic term also ``inertial1, inertial2`` before
+``status``.  CSV output copies each input line byte for byte and appends the
+fields, so ``status`` is always a row's last field, even on a malformed line.
+Parquet output holds typed columns: the needed ones as float64 (null where
+the text was not a number), and every other CSV column as int64 or float64
+when its first chunk's values are all numbers, else as text.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pacsv
+
+from ..errors import TableError
+from ..io.tables import READING_COLUMNS, Chunk, Header, parquet_schema
+from ..status import STATUS_NAMES
+
+OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
+#: With a dynamic term: the subtracted inertial and gravity load of each cell, in reading units, before status.
+MOTION_OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "inertial1", "inertial2", "status")
+_STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
+
+
+def csv_rows(lines: pa.Array, columns: dict[str, np.ndarray], status: np.ndarray) -> bytes:
+    """Each input line, then ``,fx,fy,force,angle,status``; numbers in shortest round-trip form, NaN empty."""
+    if len(lines) == 0:
+        return b""
+    parts = [lines]
+    for values in columns.values():
+        text = pc.cast(pa.array(values, mask=np.isnan(values)), pa.string())
+        parts.append(pc.fill_null(text, "").cast(pa.binary()))
+    parts.append(_STATUS_TEXT.take(pa.array(status.astype(np.int32))))
+    rows = pc.binary_join_element_wise(*parts, b",")
+    whole = pc.binary_join(pa.ListArray.from_arrays(pa.array([0, len(rows)], pa.int32()), rows), b"\n")
+    return whole[0].as_py() + b"\n"
+
+
+def output_table(table: pa.Table, columns: dict[str, np.ndarray], status: np.ndarray) -> pa.Table:
+    for name, values in columns.items():
+        table = table.append_column(name, pa.array(values, mask=np.isnan(values)))
+    return table.append_column("status", pa.array(STATUS_NAMES).take(pa.array(status.astype(np.int32))))
+
+
+class ParquetTypes:
+    """The Parquet types of a CSV table's text columns, chosen on its first chunk and held for the rest."""
+
+    def __init__(self) -> None:
+        self.types: dict[str, pa.DataType] | None = None
+
+    def convert(self, chunk: Chunk) -> pa.Table:
+        table = chunk.table
+        if self.types is None:
+            self.types = {n: pa.float64() if n in chunk.values else _numeric_type(table.column(n)) for n in table.column_names}
+        columns = {}
+        for name, kind in self.types.items():
+            if name in chunk.values:
+                values = chunk.values[name]
+                columns[name] = pa.array(values, mask=np.isnan(values))
+            elif kind == pa.string():
+                columns[name] = table.column(name)
+            else:
+                columns[name] = self._cast(chunk, name, kind)
+        return pa.table(columns)
+
+    @staticmethod
+    def _cast(chunk: Chunk, name: str, kind: pa.DataType) -> pa.ChunkedArray:
+        column = _empty_to_null(chunk.table.column(name))
+        try:
+            return pc.cast(column, kind)
+        except pa.ArrowInvalid:
+            bad = next(i for i, v in enumerate(column.to_pylist()) if v is not None and _cast_fails(v, kind))
+            raise TableError(
+                f"line {chunk.first_line + bad}, column {name!r}: {column[bad].as_py()!r} is not a number, but the "
+                f"column's first rows were, so its Parquet column is {kind}; write CSV output instead"
+            ) from None
+
+
+def _empty_to_null(column: pa.ChunkedArray) -> pa.ChunkedArray:
+    return pc.if_else(pc.equal(pc.utf8_trim_whitespace(column), ""), pa.scalar(None, pa.string()), column)
+
+
+def _numeric_type(column: pa.ChunkedArray) -> pa.DataType:
+    """int64 or float64 if every non-empty text of ``column`` is such a number, else string."""
+    column = _empty_to_null(column)
+    for kind in (pa.int64(), pa.float64()):
+        try:
+            pc.cast(column, kind)
+            return kind
+        except pa.ArrowInvalid:
+            continue
+    return pa.string()
+
+
+def _cast_fails(value: str, kind: pa.DataType) -> bool:
+    try:
+        pc.cast(pa.array([value]), kind)
+        return False
+    except pa.ArrowInvalid:
+        return True
+
+
+def output_header(names: tuple[str, ...]) -> bytes:
+    return ("," + ",".join(names) + "\n").encode()
+
+
+def csv_output_header(source: Path, header: Header | None, names: tuple[str, ...]) -> bytes:
+    if header is not None:
+        return header.line + output_header(names)
+    schema = parquet_schema(source, READING_COLUMNS)
+    nested = [f"{f.name!r} ({f.type})" for f in schema if pa.types.is_nested(f.type)]
+    if nested:
+        raise TableError(f"{source}: column(s) {', '.join(nested)} cannot be written as CSV; write Parquet output instead")
+    sink = pa.BufferOutputStream()
+    pacsv.write_csv(schema.empty_table(), sink)
+    return sink.getvalue().to_pybytes().rstrip(b"\n") + output_header(names)

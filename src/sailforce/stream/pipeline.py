@@ -1,0 +1,279 @@
+"""Estimating force over files of any size, and over a live line stream, in chunks.
+
+Every input row gives exactly one output row, in order; rows without an
+estimate (invalid, singular) have empty force fields.  The rows' format is
+:mod:`sailforce.stream.output`'s; with a dynamic term, each row's joint
+rates come from :mod:`sailforce.stream.motion`.  File mode and stream mode
+share :func:`~sailforce.stream.output.csv_rows`: the same bytes in give the
+same bytes out.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+from .._signals import signals_deferred
+from ..calibration.file import Calibration
+from ..estimate.estimator import INVALID, STATUS_NAMES
+from ..estimate.filters import LowPass
+from ..io.files import atomic_writer
+from ..io.tables import (
+    READING_COLUMNS,
+    Chunk,
+    TableError,
+    chunk_jobs,
+    csv_chunks,
+    csv_header,
+    is_parquet,
+    parquet_schema,
+    read_header,
+)
+from ..status import count_statuses
+from .motion import MotionColumns, MotionRows, MotionStage, motion_columns
+from .output import MOTION_OUTPUT_COLUMNS, OUTPUT_COLUMNS, ParquetTypes, csv_output_header, csv_rows, output_header, output_table
+
+
+class ByteSink(Protocol):
+    """Where a live stream's rows go: a binary file, stdout, or a live server's recorder."""
+
+    def write(self, data: bytes, /) -> object: ...
+
+    def flush(self) -> object: ...
+
+
+def _discarding(sink: ByteSink) -> bool:
+    """Whether a sink throws the rows' bytes away for now (a live page that is not recording): then they are not made."""
+    return bool(getattr(sink, "discarding", False))
+
+
+#: Receives each chunk of a live stream as it is estimated: the chunk (its ``values`` are the input's numbers,
+#: degrees as in files), the output columns (``fx_N`` ...) and the status codes, one per row, in order.
+RowListener = Callable[[Chunk, dict[str, np.ndarray], np.ndarray], None]
+
+#: Chunks in flight at once: estimating and formatting one chunk (numpy and
+#: Arrow release the GIL) overlaps with parsing the next and writing the last.
+WORKERS = 2
+
+
+def _loads(values: dict[str, np.ndarray], malformed: np.ndarray, lowpass: LowPass | None,
+           motion: MotionRows | None = None) -> np.ndarray:  # fmt: skip
+    """The ``(n, 2)`` loads, low-pass filtered if asked (sequential: the filter state runs through the stream).
+
+    With a motion, the filter runs on the loads less their inertial part
+    (which is then added back, to be subtracted with the estimate), so that
+    the filter's delay does not misalign the loads and the dynamic term.
+    """
+    loads = np.column_stack([values["load1"], values["load2"]])
+    if lowpass is None:
+        return loads
+    valid = ~malformed & np.all(np.isfinite(loads), axis=1)
+    valid &= np.isfinite(values["theta1_deg"]) & np.isfinite(values["theta2_deg"])
+    if motion is None:
+        return lowpass.process(loads, valid)
+    inertial = motion.inertial(values)
+    known = valid & np.all(np.isfinite(inertial), axis=1)
+    filtered = lowpass.process(loads - np.where(known[:, None], inertial, 0.0), known) + inertial
+    return np.where(known[:, None], filtered, loads)  # unknown motion: the raw loads, for the static checks
+
+
+def _estimate(cal: Calibration, values: dict[str, np.ndarray], malformed: np.ndarray, loads: np.ndarray,
+              motion: MotionRows | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
+    theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
+    inertial = None
+    if motion is None:
+        # no motion columns: the still-arm estimate even with a dynamic term (the summary says why); chunks run in parallel
+        fx, fy, status = cal.estimate(theta1, theta2, loads[:, 0], loads[:, 1], threads=1, static=True)
+    else:
+        fx, fy, status, inertial = motion.estimate(cal, theta1, theta2, loads)
+    status[malformed] = INVALID
+    fx[malformed] = np.nan
+    fy[malformed] = np.nan
+    columns = {"fx_N": fx, "fy_N": fy, "force_N": np.hypot(fx, fy), "angle_deg": np.degrees(np.arctan2(fy, fx))}
+    if inertial is not None:
+        inertial[malformed] = np.nan
+        columns |= {"inertial1": inertial[:, 0], "inertial2": inertial[:, 1]}
+    return columns, status
+
+
+def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: ParquetTypes | None):
+    chunk = job()
+    return _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, None), parquet)
+
+
+def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: ParquetTypes | None,
+                  motion: MotionRows | None = None, on_rows: RowListener | None = None):  # fmt: skip
+    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and its size."""
+    columns, status = _estimate(cal, chunk.values, chunk.malformed, loads, motion)
+    if on_rows is not None:
+        on_rows(chunk, columns, status)
+    counts = count_statuses(status)
+    if parquet is not None:
+        table = parquet.convert(chunk) if chunk.from_csv else chunk.table
+        return output_table(table, columns, status), counts, (chunk.num_rows, chunk.input_size)
+    if chunk.lines is not None and not chunk.verbatim:
+        return csv_rows(chunk.lines, columns, status), counts, (chunk.num_rows, chunk.input_size)
+    # Arrow's writer: for Parquet input it formats the typed columns; for a verbatim CSV chunk, unquoted, it
+    # writes the very bytes csv_rows would (tests/test_differential.py), some 25% faster.
+    options = pacsv.WriteOptions(include_header=False, quoting_style="none" if chunk.verbatim else "needed")
+    sink = pa.BufferOutputStream()
+    pacsv.write_csv(output_table(chunk.table, columns, status), sink, options)
+    return sink.getvalue().to_pybytes(), counts, (chunk.num_rows, chunk.input_size)
+
+
+def table_motion(cal: Calibration, source: object, names: list[str]) -> MotionColumns | None:
+    """The motion columns ``sail estimate`` uses: None unless the calibration has a dynamic term and the table a motion."""
+    return None if cal.dynamics is None else motion_columns(source, names)
+
+
+def stream_estimate(
+    cal: Calibration,
+    source: str | Path,
+    destination: str | Path,
+    *,
+    lowpass: LowPass | None = None,
+    on_chunk: Callable[[int, int], None] | None = None,
+    dt: float | None = None,
+) -> dict[str, int]:
+    """Estimate every row of ``source`` into ``destination`` (CSV or Parquet by extension), in constant memory.
+
+    The output file appears only when complete (atomic write).  ``on_chunk``
+    receives, for progress, the number of rows written and the part of the
+    input they came from (:func:`sailforce.io.tables.input_size`'s unit).  Chunks are estimated
+    on :data:`WORKERS` threads and written in order.  When the calibration
+    has a dynamic term and the table a motion (:func:`table_motion`), it is
+    subtracted; ``dt`` [s] is then the sampling period (probed from the
+    first steps when None).  Returns the count of rows per status.
+    """
+    source, destination = Path(source), Path(destination)
+    counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
+    parquet = ParquetTypes() if is_parquet(destination) else None
+    header = csv_header(source, READING_COLUMNS)
+    names = header.names if header is not None else list(parquet_schema(source, READING_COLUMNS).names)
+    motion = table_motion(cal, source, names)
+    stage = MotionStage(cal, motion, dt) if motion is not None else None
+    needed = READING_COLUMNS + (motion.names if motion is not None else ())
+    writer = None
+
+    def write(job: Future) -> None:
+        nonlocal writer, counts
+        output, chunk_counts, (rows, size) = job.result()
+        if parquet is not None:
+            writer = writer or pq.ParquetWriter(stream, output.schema)
+            writer.write_table(output)
+        else:
+            stream.write(output)
+        counts += chunk_counts
+        if on_chunk:
+            on_chunk(rows, size)
+
+    with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
+        try:
+            if parquet is None:
+                stream.write(csv_output_header(source, header, MOTION_OUTPUT_COLUMNS if motion else OUTPUT_COLUMNS))
+            pending: deque[Future] = deque()
+
+            def submit(chunk: Chunk, rows: MotionRows | None) -> None:
+                loads = _loads(chunk.values, chunk.malformed, lowpass, rows)  # in order: the filter runs through
+                pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet, rows))
+                while len(pending) >= WORKERS:
+                    write(pending.popleft())
+
+            for job in chunk_jobs(source, needed):
+                if stage is not None:
+                    for chunk, rows in stage.push(job()):
+                        submit(chunk, rows)
+                elif lowpass is None:  # chunks are independent: parse them on the workers too
+                    pending.append(pool.submit(_job_output, cal, job, parquet))
+                    while len(pending) >= WORKERS:
+                        write(pending.popleft())
+                else:
+                    submit(job(), None)
+            for chunk, rows in stage.finish() if stage is not None else ():
+                submit(chunk, rows)
+            while pending:
+                write(pending.popleft())
+        finally:
+            if writer is not None:  # before the file closes, also when a chunk fails
+                writer.close()
+        if not counts.sum():
+            raise TableError(f"{source}: no data rows below the header")
+    return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}
+
+
+def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], ByteSink], *,
+                   lowpass: LowPass | None = None, source: str = "the stream", dt: float | None = None,
+                   on_motion: Callable[[MotionStage | None], None] | None = None,
+                   on_rows: RowListener | None = None) -> dict[str, int]:  # fmt: skip
+    """Live stream: a header line, then one reading per line; each estimate is written and flushed at once.
+
+    ``lines`` are raw lines (bytes, line end included).  ``open_output`` is
+    called once the header is read and checked, so that nothing is opened,
+    let alone truncated, for a stream that is not a table of readings.  The
+    rows are those :func:`stream_estimate` writes for the same bytes.  With
+    a dynamic term and derived rates, each row is written half a window
+    late (:meth:`sailforce.stream.motion.MotionStage.delay`), when its
+    window is complete; an interrupt writes the rows still waiting, their
+    motion unknown, before it ends the stream.  With a dynamic term,
+    ``on_motion`` receives the motion stage once the header is read (None
+    when the stream gives no motion), to report its delay.  ``on_rows``
+    receives each chunk's numbers as it is written (:data:`RowListener`):
+    live displays and Lab Streaming Layer outlets read them there.  A sink
+    whose ``discarding`` attribute is true gets no bytes while it is (the
+    rows are not formatted).
+    """
+    counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
+    lines = iter(lines)
+    first = next(lines, b"")
+    if not first:
+        raise TableError(f"{source} ended before its header line")
+    header = read_header(source, first, READING_COLUMNS)
+    motion = table_motion(cal, source, header.names)
+    stage = MotionStage(cal, motion, dt) if motion is not None else None
+    needed = READING_COLUMNS + (motion.names if motion is not None else ())
+    out = open_output()
+    out.write(header.line + output_header(MOTION_OUTPUT_COLUMNS if motion else OUTPUT_COLUMNS))
+    out.flush()
+    if cal.dynamics is not None and on_motion is not None:
+        on_motion(stage)
+
+    def write(chunk: Chunk, rows: MotionRows | None) -> None:
+        nonlocal counts
+        loads = _loads(chunk.values, chunk.malformed, lowpass, rows)
+        if _discarding(out):  # the numbers alone, for the listener
+            columns, status = _estimate(cal, chunk.values, chunk.malformed, loads, rows)
+            if on_rows is not None:
+                on_rows(chunk, columns, status)
+            counts += count_statuses(status)
+            return
+        output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows)
+        out.write(output)
+        out.flush()
+        counts += chunk_counts
+
+    try:
+        for chunk in csv_chunks(source, header, needed, _whole_lines(lines), fast=False):
+            with signals_deferred():  # a row the stage has released is written before Ctrl-C acts
+                for ready in stage.push(chunk) if stage is not None else [(chunk, None)]:
+                    write(*ready)
+    except KeyboardInterrupt:  # keep every row read: those still waiting for their window go out unknown
+        for ready in stage.finish() if stage is not None else ():
+            write(*ready)
+        raise
+    for ready in stage.finish() if stage is not None else ():
+        write(*ready)
+    if not counts.sum():
+        raise TableError(f"{source}: no data rows below the header")
+    return {name: int(n) for name, n in zip(STATUS_NAMES, counts)}
+def _whole_lines(lines: Iterator[bytes]) -> Iterator[bytes]:
+    """Each line as a block of its own, ending with ``\\n`` (the last line of a stream may lack one)."""
+    for line in lines:
+        yield line if line.endswith(b"\n") else line + b"\n"

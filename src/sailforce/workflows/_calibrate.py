@@ -1,0 +1,166 @@
+"""``calibrate``: a :class:`~sailforce.calibration.Calibration` from calibration readings, as ``sail calibrate`` makes it.
+
+The recipe, in order:
+
+1. the readings (a table, or columns in memory) must be clean
+   (:func:`sailforce.io.tables.read_clean`);
+2. :func:`sailforce.fit.fit_calibration` fits the offsets and the sensing map
+   (``model``: seed, matrix, physics or the best cross-validated);
+3. the capacity, unless given, is the load cell's rating seen through the
+   fitted map (:func:`sailforce.fit.equivalent_capacity`);
+4. the calibration covers the *model's* delta range (a physics map's is wider
+   than the data's), records the readings' range, the fit's metrics and the
+   data file's SHA-256;
+5. a dynamic term is identified from a free-motion recording
+   (:func:`sailforce.fit.fit_dynamic_term`), or the robot file's prior is
+   stored (``dynamics="prior"``), or none.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration.file import Calibration
+from ..errors import InputError, TableError
+from ..estimate.dynamic import DynamicTerm
+from ..fit.calibration import FitReport, equivalent_capacity, fit_calibration
+from ..fit.dynamic import DynamicFit, fit_dynamic_term, prior_term
+from ..fit.physics import DEFAULT_TRANSDUCTION
+from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, read_clean
+from ..robot import Robot
+
+#: Where the readings come from: a CSV or Parquet file, or columns in memory (angles in degrees, as in the files).
+Readings = str | Path | Mapping[str, np.ndarray]
+
+#: The columns of a free-motion recording: the time [s] and the readings.
+FREE_MOTION_COLUMNS = ("t_s",) + READING_COLUMNS
+
+
+@dataclass(frozen=True)
+class CalibrationRun:
+    """What :func:`calibration_run` made: the calibration, and the reports of its fits."""
+
+    calibration: Calibration
+    fit: FitReport  #: the static fit (its physics identification in ``fit.physics``)
+    dynamic_fit: DynamicFit | None = None  #: the dynamic term's identification, from a free-motion recording
+    prior: DynamicTerm | None = None  #: the robot file's predicted dynamic term, beside an identified one
+
+
+def file_sha256(path: str | Path) -> str:
+    """The SHA-256 of a file's bytes, as a calibration records its data's."""
+    with open(path, "rb") as stream:
+        return hashlib.file_digest(stream, "sha256").hexdigest()
+
+
+def _columns(readings: Readings, needed: tuple[str, ...], what: str) -> tuple[dict[str, np.ndarray], str]:
+    """The needed columns and the data's SHA-256 (a file's; empty for columns in memory)."""
+    if isinstance(readings, str | Path):
+        return read_clean(readings, needed, what), file_sha256(readings)
+    missing = [name for name in needed if name not in readings]
+    if missing:
+        raise TableError(f"{what}: missing column(s) {', '.join(missing)}; expected {', '.join(needed)}")
+    values = {name: np.asarray(readings[name], dtype=float).ravel() for name in needed}
+    if not all(np.all(np.isfinite(v)) for v in values.values()):
+        bad = next(name for name, v in values.items() if not np.all(np.isfinite(v)))
+        raise TableError(f"{what}: column {bad} holds a value that is not a finite number; it must be clean")
+    return values, ""
+
+
+def calibration_run(
+    readings: Readings,
+    *,
+    robot: Robot,
+    model: str = "auto",
+    free: tuple[str, ...] | None = None,
+    transduction: str | None = None,
+    capacity: tuple[float, float] | None = None,
+    load_unit: str = "raw",
+    free_motion: Readings | None = None,
+    dynamics: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> CalibrationRun:
+    """:func:`calibrate`, with the reports of the fits (what ``sail calibrate`` prints)."""
+    if free_motion is not None and dynamics is not None:
+        raise InputError("dynamics chooses a dynamic term without a free-motion recording; give one or the other")
+    if dynamics not in (None, "prior", "none"):
+        raise InputError(f"dynamics = {dynamics!r}: expected 'prior' or 'none'")
+    values, sha256 = _columns(readings, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
+    if transduction is None and model in ("physics", "auto"):  # what the cells read: the robot file's, else the fit's default
+        transduction = robot.loadcell.reading or DEFAULT_TRANSDUCTION
+    theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
+    fitted = fit_calibration(robot.arm, theta1, theta2, values["fx_N"], values["fy_N"], values["load1"], values["load2"],
+                             kind=model, robot=robot, free=free, transduction=transduction, progress=progress)  # fmt: skip
+    report = fitted.report
+    if capacity is None:
+        capacity = tuple(equivalent_capacity(fitted.model, robot.arm, robot.loadcell.capacity_N, report.delta_range))
+    loads = (values["load1"], values["load2"])
+    cal = Calibration(
+        arm=robot.arm, model=fitted.model, offsets=(float(fitted.offsets[0]), float(fitted.offsets[1])),
+        capacity=(float(capacity[0]), float(capacity[1])), delta_range=report.model_delta_range,
+        load_range=((float(loads[0].min()), float(loads[0].max())), (float(loads[1].min()), float(loads[1].max()))),
+        load_unit=load_unit, metrics=_metrics(report, model), data_sha256=sha256,
+    )  # fmt: skip
+    if free_motion is not None:
+        return _with_dynamics(cal, report, robot, free_motion)
+    if dynamics == "prior":
+        cal = replace(cal, dynamics=prior_term(robot), dynamics_source="prior")
+    return CalibrationRun(cal, report)
+
+
+def calibrate(readings: Readings, *, robot: Robot, model: str = "auto", free: tuple[str, ...] | None = None,
+              transduction: str | None = None, capacity: tuple[float, float] | None = None, load_unit: str = "raw",
+              free_motion: Readings | None = None, dynamics: str | None = None,
+              progress: Callable[[int, int], None] | None = None) -> Calibration:  # fmt: skip
+    """A calibration from calibration readings (module docstring): what ``sail calibrate`` writes.
+
+    ``readings`` is a CSV or Parquet file, or a mapping of columns, with
+    ``theta1_deg, theta2_deg, load1, load2, fx_N, fy_N``.  ``model`` is
+    ``seed``, ``matrix``, ``physics`` or ``auto``; ``free`` and
+    ``transduction`` set up the physics fit; ``capacity`` is each cell's raw
+    reading at its rating (default: from the robot's load cell);
+    ``free_motion`` (``t_s, theta1_deg, theta2_deg, load1, load2``, nobody
+    holding the handle) identifies the dynamic term; else ``dynamics="prior"``
+    stores the robot file's.  ``progress(done, total)`` follows the physics
+    fit's starts.  Save it with :meth:`Calibration.save`.
+    """
+    return calibration_run(readings, robot=robot, model=model, free=free, transduction=transduction, capacity=capacity,
+                           load_unit=load_unit, free_motion=free_motion, dynamics=dynamics, progress=progress).calibration  # fmt: skip
+
+
+def _metrics(report: FitReport, selection: str) -> dict:
+    metrics = {"fit_rmse_N": report.fit_rmse_N, "cv_rmse_N": report.cv_rmse_N, "cv_rmse_by_model_N": report.cv_rmse_by_kind,
+               "n_samples": report.n_samples, "n_deltas": report.n_deltas, "model_selection": selection,
+               "data_delta_range_deg": [float(v) for v in np.degrees(report.delta_range)]}  # fmt: skip
+    if report.physics is not None:
+        metrics["physics"] = physics_metrics(report.physics)
+    return metrics
+
+
+def physics_metrics(physics) -> dict:
+    """What the calibration file records of a physics fit: each parameter with its standard error."""
+    fit = physics.identification
+    return {"parameters": {name: {"value": float(v), "standard_error": float(se), "identifiable": bool(ok)}
+                           for name, v, se, ok in zip(fit.names, fit.values, fit.standard_errors, fit.identifiable)},
+            "cv_rmse_N": physics.cv_rmse_N, "map_order": physics.compensator.order, "map_error": physics.map_error}  # fmt: skip
+
+
+def _with_dynamics(cal: Calibration, report: FitReport, robot: Robot, free_motion: Readings) -> CalibrationRun:
+    """The dynamic term from a free-motion recording, on top of the static calibration ``cal``."""
+    try:
+        values, _ = _columns(free_motion, FREE_MOTION_COLUMNS, "A free-motion recording")
+    except TableError as exc:
+        if "missing column(s) t_s" in str(exc):
+            raise TableError(f"{exc}. A free-motion recording needs t_s, the time of each sample [s], to derive "
+                             "the joint rates: record it with the readings") from None  # fmt: skip
+        raise
+    fit = fit_dynamic_term(cal, values["t_s"], np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"]),
+                           values["load1"], values["load2"])  # fmt: skip
+    metrics = {**cal.metrics, "dynamics_rmse_N": fit.rmse_N, "dynamics_cv_rmse_N": fit.cv_rmse_N,
+               "dynamics_condition": fit.condition, "dynamics_samples": fit.samples}  # fmt: skip
+    cal = replace(cal, dynamics=fit.term, dynamics_source="free-motion", metrics=metrics)
+    return CalibrationRun(cal, report, fit, prior_term(robot))
