@@ -1,22 +1,13 @@
-"""The calibration: a frozen dataclass, its JSON file, and its estimator.
+"""The calibration: a frozen dataclass, its JSON file, and its still-arm estimate.
 
-File format (``schema_version`` 1), one JSON object:
-
-- ``schema_version``, ``software``, ``created`` (UTC ISO 8601), ``data_sha256``;
-- ``units``: ``{"angles": "rad", "force": "N", "load": <label>}``;
-- ``robot``: ``{"l1", "l2", "l3", "l4"}`` [m];
-- ``offsets``: ``[o1, o2]`` raw; ``capacity``: ``[c1, c2]`` raw (offset removed);
-- ``delta_range``: ``[low, high]`` [rad]; ``load_range``: ``[[min1, max1], [min2, max2]]`` raw;
-- ``model``: ``{"kind": "matrix", "coefficients": [[[..]]] (order+1, 2, 2), "delta_range": [..]}`` or
-  ``{"kind": "seed", "amplitude": [p1, p2], "phase_deg": [p1, p2]}``, each p a list of
-  coefficients, highest power first, in delta [deg];
-- ``metrics``: fit and cross-validated RMSE [N], sample and delta counts;
-- ``dynamics`` (optional): the dynamic term of :mod:`sailforce.estimate.dynamic`,
-  ``{"columns": [names], "values": [..], "combinations": [..], "differentiator":
-  {"window_s": .., "order": ..}, "source": "free-motion" | "prior"}``: base
-  parameters [SI] in representative columns of :data:`sailforce.motion.dynamics.PARAMETERS`
-  (``combinations`` spells out what each stands for, for people);
-- ``checksum``: SHA-256 of the canonical JSON (sorted keys, compact) of everything else.
+The file format (``schema_version`` 1) is described once, in
+``calibration.schema.json`` (JSON Schema 2020-12, shipped beside this module):
+every field, its unit, its bounds and the text patterns a field may hold;
+every file sailforce writes is validated against it in the tests.  The
+loader here checks what a schema cannot: the checksum (SHA-256 of the
+canonical JSON, sorted keys and compact, of everything else), that the
+numbers are finite and the map invertible, and the same patterns
+(:data:`TEXT_FIELDS`, which a test holds equal to the schema's).
 
 It is written atomically.  Loading validates every field and the checksum
 and raises :class:`CalibrationFileError` naming the file and the field.
