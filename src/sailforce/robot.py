@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from .adc import ADC
 from .arm import Arm
 from .errors import GeometryError
 from .loadcell import STANDARD_GRAVITY, LoadCell
@@ -171,6 +172,7 @@ class Robot:
     handle: Handle = field(default_factory=Handle)
     plane: Plane = field(default_factory=Plane)
     bodies: LinkBodies = field(default_factory=LinkBodies)
+    adc: ADC = field(default_factory=ADC)  #: the cells' ADC (sailforce.adc): its rate, filter and noise
 
     def section(self, link: str) -> RectangularSection:
         """The cross-section of ``link`` (``"l1"`` ... ``"l4"``): its own, or the shared one."""

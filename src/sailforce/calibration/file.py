@@ -28,6 +28,7 @@ from typing import NoReturn
 import numpy as np
 
 from .._version import __version__
+from ..adc import ADC
 from ..arm import Arm
 from ..errors import CalibrationFileError, GeometryError, InputError, SailError
 from ..estimate.dynamic import DynamicTerm
@@ -53,6 +54,9 @@ TEXT_FIELDS = {
     "data_sha256": (re.compile(r"([0-9a-f]{64})?\Z"), "64 lower-case hexadecimal digits, or empty"),
     "units.load": (re.compile(r"[A-Za-z0-9µ%][A-Za-z0-9µ% ._/()-]{0,31}\Z"), "up to 32 letters, digits, spaces and ._/()%-"),
 }  # fmt: skip
+#: What an ADC's model name may hold (a preset's name, or "custom", with " (modified)"): no quotes, no comment ends.
+ADC_MODEL = re.compile(r"[a-z0-9][a-z0-9 ._()-]{0,47}\Z")
+ADC_MODEL_RULE = "up to 48 lower-case letters, digits, spaces and ._()-"
 
 #: A full cell must stand for a hand force within these bounds [N], nine orders of magnitude either side of a newton,
 #: at every calibrated pose: far outside them the numbers are not a calibration (an amplitude of 1e-300 would give
@@ -109,6 +113,13 @@ class Calibration:
     software: str = f"sailforce {__version__}"
     dynamics: DynamicTerm | None = None  #: the inertial and gravity loads to subtract while moving
     dynamics_source: str = ""  #: "free-motion" (identified) or "prior" (from the robot file)
+    adc: ADC = ADC()  #: the cells' ADC; a real one (not ``ideal``) makes estimates multi-rate (sailforce.estimate.multirate)
+    adc_delay_s: float = 0.0  #: the filter's delay identified beyond the model's N T / 2 [s] (free-motion calibration)
+
+    @property
+    def multirate(self) -> bool:
+        """Whether readings come from a real ADC: one conversion now and then, each a filtered average."""
+        return not self.adc.ideal
 
     @property
     def kind(self) -> str:
@@ -153,6 +164,10 @@ class Calibration:
         }
         if self.dynamics is not None:
             content["dynamics"] = _dynamics_dict(self.dynamics, self.dynamics_source)
+        if self.multirate:
+            content["adc"] = {"model": self.adc.model, "rate_Hz": self.adc.rate_Hz, "sinc_order": self.adc.sinc_order,
+                              "noise_nV": self.adc.noise_nV, "simultaneous": self.adc.simultaneous,
+                              "rate_tolerance": self.adc.rate_tolerance, "delay_s": self.adc_delay_s}  # fmt: skip
         content["checksum"] = checksum(content)
         return content
 
@@ -236,12 +251,34 @@ class Calibration:
         dynamics = _dynamics_from(data["dynamics"], fail) if "dynamics" in data else None
         if dynamics is not None and data["dynamics"].get("source", "") not in ("", *DYNAMICS_SOURCES):
             fail(f"dynamics.source {data['dynamics'].get('source')!r}: expected one of {', '.join(DYNAMICS_SOURCES)}")
-        return cls(arm=arm, model=model, offsets=offsets, capacity=capacity, delta_range=delta_range,
+        adc, adc_delay = _adc_from(data["adc"], fail) if "adc" in data else (ADC(), 0.0)
+        return cls(arm=arm, model=model, offsets=offsets, capacity=capacity, delta_range=delta_range, adc=adc, adc_delay_s=adc_delay,
                    load_range=load_range, load_unit=text["load"],
                    metrics=data["metrics"] if isinstance(data["metrics"], dict) else {},
                    data_sha256=text["data_sha256"], created=text["created"], software=text["software"],
                    dynamics=dynamics,
                    dynamics_source=str(data["dynamics"].get("source", "")) if dynamics else "")  # fmt: skip
+
+
+def _adc_from(data: object, fail: Callable[[str], NoReturn]) -> tuple[ADC, float]:
+    """The ``adc`` object: the ADC model's fields and the identified extra delay [s]."""
+    if not isinstance(data, dict):
+        fail("adc must be an object")
+    try:
+        model = data.get("model", "custom")
+        if not isinstance(model, str) or not ADC_MODEL.match(model):
+            raise InputError(f"adc.model = {model!r}: expected {ADC_MODEL_RULE}")
+        adc = ADC(model=model, rate_Hz=_number(data, "rate_Hz"), sinc_order=data["sinc_order"],
+                  noise_nV=_number(data, "noise_nV"), simultaneous=data["simultaneous"],
+                  rate_tolerance=_number(data, "rate_tolerance"))  # fmt: skip
+        delay = _number(data, "delay_s")
+    except (KeyError, TypeError) as exc:
+        fail(f"adc: {exc}")
+    except InputError as exc:
+        fail(str(exc))
+    if adc.ideal or not abs(delay) <= adc.period_s:
+        fail(f"adc: rate_Hz {adc.rate_Hz:g} and delay_s {delay:g}: expected a real ADC and a delay within one period")
+    return adc, delay
 
 
 def _check_sensing(model, capacity, delta_range, fail: Callable[[str], NoReturn]) -> None:

@@ -80,7 +80,7 @@ SOLVER_TOL = 1e-12
 START_TOL = 1e-6
 START_MAX_NFEV = 30
 #: Keys that do not enter the static sensing map: freeing them is refused.
-STATICALLY_INERT = ("rho", "yield_strength", "handle.", "plane.", "links.l4", "noise_mV_V")
+STATICALLY_INERT = ("rho", "yield_strength", "handle.", "plane.", "links.l4", "noise_mV_V", "adc.")
 #: More distinct deltas than this in a readings target: interpolate the frame's map on Chebyshev nodes.
 MAX_EXACT_DELTAS = 128
 #: Chebyshev nodes of that interpolation (the map is analytic in delta: the error is far below 1e-9).

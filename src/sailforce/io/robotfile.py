@@ -13,8 +13,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from ..adc import ADC, ADC_KEYS, PRESETS, adc_from_table
 from ..arm import Arm
-from ..errors import GeometryError, RobotFileError
+from ..errors import GeometryError, RobotFileError, SailError
 from ..materials import RectangularSection
 from ..robot import JOINT_NAMES, LINK_NAMES, Joint, Joints, LinkBodies, LinkBody, Robot
 from .files import atomic_writer
@@ -25,6 +26,8 @@ MATERIAL_KEYS = ("E", "nu", "rho", "yield_strength")
 LOADCELL_KEYS = ("capacity_kg", "rated_deflection", "length", "position", "depth", "thickness",
                  "rated_output_mV_V", "crosstalk_axial", "crosstalk_moment",
                  "compliance", "compliance_vv", "compliance_vm", "compliance_mm", "noise_mV_V", "reading")  # fmt: skip
+#: Keys whose value is true or false.
+BOOL_KEYS = ("simultaneous",)
 #: Keys whose value is a quoted name rather than a number.
 NAME_KEYS = ("model", "compliance", "reading")
 #: Each optional section and the keys it may hold; ``links`` is required.
@@ -37,6 +40,7 @@ SECTIONS = {
     "motors": ("model", "stiffness"),
     "handle": ("mass", "position"),
     "plane": ("tilt_deg", "axis_deg"),
+    "adc": ADC_KEYS,
 }
 KNOWN_SECTIONS = tuple(SECTIONS)
 
@@ -121,7 +125,7 @@ position = {handle_position:g}        # along l3 from P2, as a fraction of l3 (1
 [plane]             # the plane of motion; tilted, gravity has a component in it that loads the cells
 tilt_deg = {tilt:g}        # angle from horizontal
 axis_deg = {axis:g}      # direction in the plane (CCW from +x) that the in-plane gravity points to
-"""
+{adc_block}"""
 
 
 @dataclass(frozen=True)
@@ -154,7 +158,28 @@ def template(robot: Robot | None = None) -> str:
         joints=r.joints.model, joint_k=r.joints.stiffness, joint_overrides=_joint_overrides(r.joints),
         motors=r.motors.model, motor_k=r.motors.stiffness,
         handle_mass=r.handle.mass, handle_position=r.handle.position, tilt=r.plane.tilt_deg, axis=r.plane.axis_deg,
+        adc_block=_adc_block(r.adc),
     )  # fmt: skip
+
+
+def _adc_block(adc: ADC) -> str:
+    """The ``[adc]`` table when the robot has one, else a comment that shows how to state it."""
+    models = ", ".join(f'"{name}"' for name in PRESETS)
+    if adc == ADC():
+        return (f'\n# [adc]             # the cells\' ADC (docs/reference/adc.md); unset: the ideal sensor, a reading at every tick\n'
+                f'# model = "hx711-80"  # a preset: {models}\n'
+                "# rate_Hz = 80       # or explicit keys, overriding the preset's: conversions per second,\n"
+                "# sinc_order = 4     # the sinc filter's order (settles in sinc_order conversions),\n"
+                "# noise_nV = 90      # input noise rms at that rate, simultaneous = true for one two-channel chip\n")
+    preset = PRESETS.get(adc.model)
+    lines = ["", "[adc]             # the cells' ADC (docs/reference/adc.md)"]
+    if preset is not None:
+        lines.append(f'model = "{adc.model}"  # one of {models}')
+    else:
+        for key in ("rate_Hz", "sinc_order", "noise_nV", "rate_tolerance"):
+            lines.append(f"{key} = {getattr(adc, key):g}")
+        lines.append(f"simultaneous = {'true' if adc.simultaneous else 'false'}")
+    return "\n".join(lines) + "\n"
 
 
 def _reading_line(reading: str) -> str:
@@ -264,7 +289,15 @@ def robot_data(robot: Robot) -> dict[str, Any]:
         "motors": {"model": robot.motors.model, "stiffness": robot.motors.stiffness},
         "handle": {"mass": robot.handle.mass, "position": robot.handle.position},
         "plane": {"tilt_deg": robot.plane.tilt_deg, "axis_deg": robot.plane.axis_deg},
+        **({"adc": _adc_data(robot.adc)} if robot.adc != ADC() else {}),  # the ideal sensor: no table, as before
     }  # fmt: skip
+
+
+def _adc_data(adc: ADC) -> dict[str, Any]:
+    if PRESETS.get(adc.model) == adc:
+        return {"model": adc.model}
+    return {"rate_Hz": adc.rate_Hz, "sinc_order": adc.sinc_order, "noise_nV": adc.noise_nV,
+            "simultaneous": adc.simultaneous, "rate_tolerance": adc.rate_tolerance}  # fmt: skip
 
 
 def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | None = None, *,
@@ -279,7 +312,7 @@ def _table(path: Path, data: dict[str, Any], name: str, keys: tuple[str, ...] | 
     if extra:
         raise RobotFileError(f"{path}: [{name}] has unknown key(s) {', '.join(extra)}; expected {', '.join(allowed)}")
     for key, value in table.items():
-        if key in NAME_KEYS or isinstance(value, dict):
+        if key in NAME_KEYS or isinstance(value, dict) or (key in BOOL_KEYS and isinstance(value, bool)):
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise RobotFileError(f"{path}: [{name}] {key} = {value!r}: expected a number")
@@ -308,6 +341,9 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
     motors = _table(path, data, "motors")
     handle = _table(path, data, "handle")
     plane = _table(path, data, "plane")
+    adc_table = _table(path, data, "adc")
+    if "model" in adc_table and not isinstance(adc_table["model"], str):
+        raise RobotFileError(f"{path}: [adc] model = {adc_table['model']!r}: expected a quoted name")
     per_joint = {name: _table(path, joints, name, ("model", "stiffness"), parent="joints") for name in JOINT_NAMES if name in joints}
     shared = {k: v for k, v in joints.items() if k not in JOINT_NAMES}
     for name, table in (("joints", shared), ("motors", motors), ("loadcells", cells),
@@ -334,7 +370,17 @@ def _parse_structure(path: Path, data: dict[str, Any], arm: Arm) -> Robot:
         handle=replace(default.handle, **handle),
         plane=replace(default.plane, **plane),
         bodies=LinkBodies(**bodies),
+        adc=_parse_adc(path, adc_table),
     )
+
+
+def _parse_adc(path: Path, table: dict[str, Any]) -> ADC:
+    if not table:
+        return ADC()
+    try:
+        return adc_from_table(table)
+    except SailError as exc:
+        raise RobotFileError(f"{path}: [adc] {exc}") from None
 
 
 def _parse_links(path: Path, data: dict[str, Any]) -> Arm:

@@ -51,13 +51,31 @@ def _leaves(table: Mapping[str, Any], prefix: str = "") -> Iterator[tuple[str, A
             yield f"{prefix}{key}", value
 
 
+def _keyed_data(robot: Robot) -> dict[str, Any]:
+    """The robot file's tables with every ``adc.*`` key, so that a sweep may set one on a robot without ``[adc]``."""
+    data = robot_data(robot)
+    adc = robot.adc
+    data["adc"] = {"model": adc.model, "rate_Hz": adc.rate_Hz, "sinc_order": adc.sinc_order, "noise_nV": adc.noise_nV,
+                   "simultaneous": adc.simultaneous, "rate_tolerance": adc.rate_tolerance}  # fmt: skip
+    return data
+
+
+def _adc_table(robot: Robot, values: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``[adc]`` table after setting ``adc.*`` keys: a new model starts from its preset, other keys override it."""
+    own = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("adc.")}
+    if "model" in own:
+        return own
+    base = robot_data(robot).get("adc", {"model": robot.adc.model})
+    return {**base, **own}
+
+
 def robot_keys(robot: Robot, *, numeric: bool = False) -> tuple[str, ...]:
     """Every key of ``robot`` (``numeric``: only those holding numbers), per-joint keys included."""
-    data = robot_data(robot)
+    data = _keyed_data(robot)
     for section, (names, _) in _SHARED.items():
         for name in names:
             data[section].setdefault(name, _shared(data, section))
-    return tuple(key for key, value in _leaves(data) if not numeric or not isinstance(value, str))
+    return tuple(key for key, value in _leaves(data) if not numeric or not isinstance(value, (str, bool)))
 
 
 def _unknown(robot: Robot, key: str) -> RobotFileError:
@@ -69,7 +87,7 @@ def _unknown(robot: Robot, key: str) -> RobotFileError:
 
 def get_key(robot: Robot, key: str) -> Any:
     """The value of ``key`` on ``robot`` (a per-joint or per-link key falls back to the shared table)."""
-    node: Any = robot_data(robot)
+    node: Any = _keyed_data(robot)
     parts = key.split(".")
     if _per_body(parts) and parts[1] not in node[parts[0]]:
         parts = [*_SHARED[parts[0]][1], parts[2]]
@@ -88,6 +106,9 @@ def with_keys(robot: Robot, values: Mapping[str, Any]) -> Robot:
     edited = copy.deepcopy(data)
     for key, value in values.items():
         get_key(robot, key)  # refuses unknown keys by name
+        if key.startswith("adc."):
+            edited["adc"] = _adc_table(robot, values)
+            continue
         parts = key.split(".")
         node = edited
         for i, part in enumerate(parts[:-1]):
