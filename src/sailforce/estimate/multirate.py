@@ -258,7 +258,8 @@ class MultiRateEstimator:
             s1, s2 = raw1 - self.cal.offsets[0], raw2 - self.cal.offsets[1]
             full1, full2 = np.abs(s1) > self.cal.capacity[0], np.abs(s2) > self.cal.capacity[1]
             saturated = np.any(full1, axis=1) | np.any(full2, axis=1)
-            extrapolated = ~((delta >= self.cal.delta_range[0] - DELTA_RANGE_SLACK) & (delta <= self.cal.delta_range[1] + DELTA_RANGE_SLACK))
+            low, high = self.cal.delta_range[0] - DELTA_RANGE_SLACK, self.cal.delta_range[1] + DELTA_RANGE_SLACK
+            extrapolated = ~((delta >= low) & (delta <= high))
         invalid = ~(np.all(np.isfinite(s1), axis=1) & np.all(np.isfinite(s2), axis=1) & np.all(np.isfinite(q), axis=1))
         singular = is_singular(sd, SINGULAR_SIN_DELTA) | (known & ~np.isfinite(fx))
         status = np.full(e, OK, dtype=float)
