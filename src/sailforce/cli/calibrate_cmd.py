@@ -9,6 +9,7 @@ import click
 import numpy as np
 from rich.console import Console
 
+from ..adc import PRESETS
 from ..calibration.file import Calibration
 from ..calibration.tare import TARE_MAX_SHIFT, tare
 from ..errors import SailError
@@ -56,9 +57,13 @@ def _parse_capacity(ctx, param, value):
 @click.option("--free-motion", "free_motion", type=click.Path(dir_okay=False, path_type=Path), default=None,
               metavar="FREE.csv", help="The motors moving the arm with nobody holding the handle (t_s, theta1_deg, "
               "theta2_deg, load1, load2): identifies the inertial and gravity loads to subtract while moving.")
+@click.option("--adc", "adc_name", type=click.Choice(tuple(PRESETS)), default=None,
+              help="The cells' ADC, overriding the robot file's [adc]: a real one reads DATA (and FREE) as multi-rate "
+                   "recordings (t_s, sparse loads) and stores the ADC in the calibration (docs/reference/multirate.md).")
 @click.option("--dynamics", type=click.Choice(("prior", "none")), default=None,
               help="Without --free-motion: store the robot file's predicted dynamic term, or none (the default).")
-def calibrate_command(data, robot_path, output, kind, free, transduction, quiet, capacity, load_unit, free_motion, dynamics):
+def calibrate_command(data, robot_path, output, kind, free, transduction, quiet, capacity, load_unit, free_motion, adc_name,
+                      dynamics):
     """Fit offsets and the sensing map from DATA.csv (or .parquet) with reference forces.
 
     DATA has the columns theta1_deg, theta2_deg, load1, load2 (raw readings
@@ -85,12 +90,20 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     with progress_bar(console, "fitting the physics model", None, unit="starts", quiet=quiet or kind not in ("physics", "auto")) as advance:
         run = calibration_run(data, robot=robot, model=kind, free=free_keys, transduction=transduction, capacity=capacity,
                               load_unit=load_unit, free_motion=free_motion, dynamics=dynamics,
-                              progress=lambda done, total: advance(1))  # fmt: skip
+                              progress=lambda done, total: advance(1),
+                              adc=PRESETS[adc_name] if adc_name is not None else None)  # fmt: skip
     cal, report = run.calibration, run.fit
     if report.physics is not None:
         _print_physics(console, report.physics)
     if run.dynamic_fit is not None:
         _print_dynamics(console, run, free_motion)
+    if run.holds is not None:
+        h = run.holds
+        console.print(f"{cal.adc.model}: {h.used_holds} of {h.holds} holds used; settled conversions (whole window in "
+                      f"a hold) {h.settled[0]} of {h.conversions[0]} and {h.settled[1]} of {h.conversions[1]}, the others "
+                      "dropped", highlight=False)  # fmt: skip
+    if run.multirate is not None:
+        _print_multirate(console, run)
     offsets, capacity = cal.offsets, cal.capacity
     cal.save(output)
     low, high = np.degrees(report.delta_range)
@@ -118,6 +131,16 @@ def _print_physics(console: Console, physics) -> None:
     if at_bound:
         console.print(f"[yellow]note:[/yellow] {', '.join(at_bound)} ended on a bound: the data push it beyond the "
                       "range allowed (a stiffness at 0.01 is a pin, at 1e7 a bonded joint)")  # fmt: skip
+
+
+def _print_multirate(console: Console, run) -> None:
+    fit = run.multirate
+    rates = ", ".join(f"{c.rate_Hz:.4g} Hz (phase {c.phase_s * 1e3:.2f} ms)" for c in fit.clocks)
+    console.print(f"dynamic term through the ADC: {fit.conversions} conversions, residual {fit.rmse:.4g} raw, condition "
+                  f"{fit.condition:.3g}; the filter's extra delay {fit.delay_s * 1e3:+.2f} ± {fit.delay_se_s * 1e3:.2f} ms; "
+                  f"measured clocks {rates}; motion bandwidth {fit.motion_bandwidth_Hz:.3g} Hz", highlight=False)  # fmt: skip
+    for warning in fit.warnings:
+        Console(stderr=True).print(f"[bold yellow]warning:[/bold yellow] {warning}", highlight=False)
 
 
 def _print_dynamics(console: Console, run, free_motion: Path) -> None:

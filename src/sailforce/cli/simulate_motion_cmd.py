@@ -9,8 +9,11 @@ import numpy as np
 from rich.console import Console
 
 from .._version import __version__
+from ..adc import PRESETS
+from ..adc.conversions import MIN_PLANT_RATE_HZ
 from ..io.files import check_output, check_sidecar, numeric_table_writer, table_format, write_json
 from ..motion.dynamics import base_parameters, inertial_parameters, parameter_vector
+from ..motion.multirate import HOLD_S, record_holds, record_multirate
 from ..motion.reaching import reaching, record
 from ..synthetic import NoiseModel, calibration_session, session_offsets
 from . import cli
@@ -23,6 +26,9 @@ MAX_DURATION_S = 3600.0
 
 MOTION_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "true_fx_N", "true_fy_N")
 STATIC_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2", "fx_N", "fy_N")
+#: With a real ADC: the multi-rate format (docs/reference/multirate.md), the conversions' instants beside the loads.
+MULTIRATE_MOTION_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "load1_t_s", "load2_t_s", "true_fx_N", "true_fy_N")
+MULTIRATE_STATIC_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "load1_t_s", "load2_t_s", "fx_N", "fy_N")
 
 
 @cli.command("simulate-motion")
@@ -44,13 +50,19 @@ STATIC_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2", "fx_N", "fy_N")
               help="Encoder resolution: 2^bits counts per revolution.")
 @click.option("--noise", "noise_fraction", type=FINITE, default=NoiseModel().noise_fraction, show_default=True,
               help="Cell noise, fraction of rated output (Gaussian).")
+@click.option("--adc", "adc_name", type=click.Choice(tuple(PRESETS)), default=None,
+              help="The cells' ADC: each cell converts on its own clock through its filter, the plant integrated at "
+                   "10 kHz, written in the multi-rate format. Default: the robot file's [adc], else ideal (a reading "
+                   "at every tick, as before).")
+@click.option("--hold-s", "hold_s", cls=PrimaryOption, type=FINITE, default=HOLD_S, show_default=True,
+              help="static, with an ADC: how long each pose and force is held [s].")
 @click.option("--rig", type=click.IntRange(0), default=1, show_default=True,
               help="Which simulated rig: its cells' zero offsets, the same in every session made with it.")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="The session's noise draw.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="OUT.csv or OUT.parquet; OUT.csv.json beside it holds the truth (offsets, base parameters).")
 def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwell, stiffness, rate, encoder_bits,
-                            noise_fraction, rig, seed, output):  # fmt: skip
+                            noise_fraction, adc_name, hold_s, rig, seed, output):  # fmt: skip
     """Simulate a rig's recordings: a static calibration session, or reaching movements with inertia.
 
     \b
@@ -78,12 +90,27 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
     if dwell < 0 or noise_fraction < 0 or stiffness < 0:
         raise click.UsageError("--dwell-s, --noise and --hand-stiffness-N-per-m cannot be negative")
     robot = load_robot(robot_path)
+    adc = PRESETS[adc_name] if adc_name is not None else robot.adc
+    if not hold_s > 0:
+        raise click.BadParameter(f"{hold_s:g} must be positive", param_hint="--hold-s")
     noise = NoiseModel(noise_fraction=noise_fraction)
     offsets = session_offsets(robot, noise, rig)
     console = Console(stderr=True)
     truth = {"software": f"sailforce {__version__}", "session": session, "rig": rig, "seed": seed,
              "offsets_counts": offsets.tolist(), "robot_file": str(robot_path) if robot_path else None, "robot": robot}  # fmt: skip
-    if session == "static":
+    if not adc.ideal:
+        truth |= {"adc": {"model": adc.model, "rate_Hz": adc.rate_Hz, "sinc_order": adc.sinc_order}}
+    if not adc.ideal and session == "static":
+        t1, t2, fx, fy, _, _ = calibration_session(robot, seed=seed + 1, noise=noise, offsets=offsets)
+        holds = record_holds(robot, adc, t1, t2, fx, fy, hold_s=hold_s, control_rate_hz=rate, noise=noise,
+                             counts_per_rev=1 << encoder_bits, seed=seed, offsets=offsets)  # fmt: skip
+        with numeric_table_writer(output, MULTIRATE_STATIC_COLUMNS, missing="") as write:
+            write({"t_s": holds.t, "theta1_deg": np.degrees(holds.theta[:, 0]), "theta2_deg": np.degrees(holds.theta[:, 1]),
+                   "load1": holds.loads[:, 0], "load2": holds.loads[:, 1], "load1_t_s": holds.load_t[:, 0],
+                   "load2_t_s": holds.load_t[:, 1], "fx_N": holds.force[:, 0], "fy_N": holds.force[:, 1]})  # fmt: skip
+        truth |= {"clocks_Hz": [c.clock.rate_Hz for c in holds.cells], "holds": int(t1.size), "hold_s": hold_s}
+        rows = holds.t.size
+    elif session == "static":
         t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=seed + 1, noise=noise, offsets=offsets)
         with numeric_table_writer(output, STATIC_COLUMNS) as write:
             write({"theta1_deg": np.degrees(t1), "theta2_deg": np.degrees(t2), "load1": counts[:, 0],
@@ -94,13 +121,27 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
         if duration > MAX_DURATION_S:
             raise click.UsageError(f"{reaches} reaches last {duration:.0f} s, more than {MAX_DURATION_S:.0f} s; "
                                    "ask for fewer reaches")  # fmt: skip
-        motion = reaching(robot, reach=reach, reaches=reaches, peak_speed=peak_speed, dwell=dwell, sample_rate_hz=rate)
-        rec = record(robot, motion, hand_stiffness=stiffness if session == "task" else 0.0, noise=noise,
-                     counts_per_rev=1 << encoder_bits, seed=seed, offsets=offsets)  # fmt: skip
-        with numeric_table_writer(output, MOTION_COLUMNS) as write:
-            write({"t_s": rec.t, "theta1_deg": np.degrees(rec.theta[:, 0]), "theta2_deg": np.degrees(rec.theta[:, 1]),
-                   "load1": rec.loads[:, 0], "load2": rec.loads[:, 1], "true_fx_N": rec.force[:, 0],
-                   "true_fy_N": rec.force[:, 1]})  # fmt: skip
+        if adc.ideal:
+            motion = reaching(robot, reach=reach, reaches=reaches, peak_speed=peak_speed, dwell=dwell, sample_rate_hz=rate)
+            rec = record(robot, motion, hand_stiffness=stiffness if session == "task" else 0.0, noise=noise,
+                         counts_per_rev=1 << encoder_bits, seed=seed, offsets=offsets)  # fmt: skip
+            with numeric_table_writer(output, MOTION_COLUMNS) as write:
+                write({"t_s": rec.t, "theta1_deg": np.degrees(rec.theta[:, 0]), "theta2_deg": np.degrees(rec.theta[:, 1]),
+                       "load1": rec.loads[:, 0], "load2": rec.loads[:, 1], "true_fx_N": rec.force[:, 0],
+                       "true_fy_N": rec.force[:, 1]})  # fmt: skip
+        else:
+            multi = record_multirate(robot, adc, reach=reach, reaches=reaches, peak_speed=peak_speed, dwell=dwell,
+                                     hand_stiffness=stiffness if session == "task" else 0.0, control_rate_hz=rate,
+                                     plant_rate_hz=_plant_rate(rate), noise=noise, counts_per_rev=1 << encoder_bits,
+                                     seed=seed, offsets=offsets)  # fmt: skip
+            motion = multi.motion
+            with numeric_table_writer(output, MULTIRATE_MOTION_COLUMNS, missing="") as write:
+                write({"t_s": multi.t, "theta1_deg": np.degrees(multi.theta[:, 0]), "theta2_deg": np.degrees(multi.theta[:, 1]),
+                       "load1": multi.loads[:, 0], "load2": multi.loads[:, 1], "load1_t_s": multi.load_t[:, 0],
+                       "load2_t_s": multi.load_t[:, 1], "true_fx_N": multi.force[:, 0], "true_fy_N": multi.force[:, 1]})  # fmt: skip
+            truth |= {"clocks_Hz": [c.clock.rate_Hz for c in multi.cells], "plant_rate_Hz": _plant_rate(rate),
+                      "conversions_overwritten": [c.overwritten for c in multi.cells]}  # fmt: skip
+            rec = multi
         base = base_parameters(robot.arm)
         truth |= {"base_parameters": dict(zip(base.names, base.of(parameter_vector(
                       robot.arm, inertial_parameters(robot), robot.plane.gravity)).tolist())),
@@ -109,6 +150,11 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
         rows = rec.t.size
     write_json(sidecar, truth)
     console.print(f"wrote {rows:,} rows of the {session} session to {output} (the truth in {sidecar})", highlight=False)
+
+
+def _plant_rate(control_rate: float) -> float:
+    """The plant's rate: the smallest whole multiple of the control rate at or above 10 kHz."""
+    return control_rate * max(1, int(np.ceil(MIN_PLANT_RATE_HZ / control_rate - 1e-9)))
 
 
 def _hand_acceleration(robot, motion) -> np.ndarray:

@@ -197,8 +197,9 @@ class MultiRateEstimator:
         """Add a cell's conversions to its history; the index of the first new one in it."""
         cell = self.cells[i]
         periods = self._periods(cell, times)
-        rows, dynamic, known = self._windows(i, times, periods)
-        centroid = times - 0.5 * self.adc.sinc_order * periods - self.cal.adc_delay_s
+        late = times - self.cal.adc_delay_s  # the window as the free-motion calibration found it
+        rows, dynamic, known = self._windows(i, late, periods)
+        centroid = late - 0.5 * self.adc.sinc_order * periods
         u = raw - self.cal.offsets[i] - dynamic
         start = cell.centroid.size
         cell.centroid = np.concatenate([cell.centroid, centroid])

@@ -186,12 +186,14 @@ def read_numeric_csv(path: str | Path, *, min_columns: int = 1) -> tuple[list[st
 
 
 @contextmanager
-def numeric_table_writer(path: str | Path, columns: tuple[str, ...], *, csv_format: str = "%.12g") -> Iterator:
+def numeric_table_writer(path: str | Path, columns: tuple[str, ...], *, csv_format: str = "%.12g",
+                         missing: str | None = None) -> Iterator:  # fmt: skip
     """Yield ``write(values)`` appending rows (a dict of equal-length arrays) to a CSV or Parquet file.
 
     The format follows the extension (:func:`table_format`); the file is
     written atomically.  CSV numbers use ``csv_format``; Parquet columns are
-    float64.
+    float64.  With ``missing`` (``""``: an empty field), NaN is written as it
+    in CSV and as null in Parquet.
     """
     if table_format(path) == "parquet":
         import pyarrow as pa
@@ -199,11 +201,27 @@ def numeric_table_writer(path: str | Path, columns: tuple[str, ...], *, csv_form
 
         schema = pa.schema([(name, pa.float64()) for name in columns])
         with atomic_writer(path, "wb") as stream, pq.ParquetWriter(stream, schema) as writer:
-            yield lambda values: writer.write_table(pa.table({n: np.asarray(values[n], float) for n in columns}, schema=schema))
+            def write_parquet(values) -> None:
+                arrays = {n: np.asarray(values[n], float) for n in columns}
+                if missing is not None:
+                    arrays = {n: pa.array(a, mask=np.isnan(a)) for n, a in arrays.items()}
+                writer.write_table(pa.table(arrays, schema=schema))
+
+            yield write_parquet
         return
     with atomic_writer(path) as stream:
         stream.write(",".join(columns) + "\n")
-        yield lambda values: np.savetxt(stream, np.column_stack([values[n] for n in columns]), fmt=csv_format, delimiter=",")
+        if missing is None:
+            yield lambda values: np.savetxt(stream, np.column_stack([values[n] for n in columns]), fmt=csv_format, delimiter=",")
+            return
+
+        def write_csv(values) -> None:
+            table = np.column_stack([np.asarray(values[n], float) for n in columns])
+            text = np.char.mod(csv_format, table)
+            text[np.isnan(table)] = missing
+            stream.write("".join(",".join(row) + "\n" for row in text.tolist()))
+
+        yield write_csv
 
 
 def write_numeric_table(path: str | Path, columns, table, *, csv_format: str = "%.12g") -> None:

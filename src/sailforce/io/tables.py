@@ -169,17 +169,26 @@ def read_all(path: str | Path, needed: tuple[str, ...]) -> tuple[dict[str, np.nd
 MAX_ABS_VALUE = 1e12
 
 
-def read_clean(path: str | Path, needed: tuple[str, ...], what: str) -> dict[str, np.ndarray]:
+def table_names(path: str | Path) -> list[str]:
+    """The column names of a CSV or Parquet table."""
+    header = csv_header(path, ())
+    return header.names if header is not None else list(parquet_schema(Path(path), ()).names)
+
+
+def read_clean(path: str | Path, needed: tuple[str, ...], what: str, *, sparse: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
     """Every ``needed`` column of a calibration-type table, which must be clean: the first bad row is refused.
 
     A row is bad when it is malformed (a wrong number of fields) or a needed
-    field is missing, not a number, or beyond :data:`MAX_ABS_VALUE`.  ``what``
-    names the table in the message (``"Calibration data"``).
+    field is missing, not a number, or beyond :data:`MAX_ABS_VALUE`; a
+    ``sparse`` column may be empty (NaN: a multi-rate table's loads between
+    conversions), not beyond the bound.  ``what`` names the table in the
+    message (``"Calibration data"``).
     """
     values, malformed, lines = read_all(path, needed)
     bad = malformed.copy()
     for name in needed:
-        bad |= ~(np.abs(values[name]) <= MAX_ABS_VALUE)
+        within = np.abs(values[name]) <= MAX_ABS_VALUE
+        bad |= ~(within | np.isnan(values[name])) if name in sparse else ~within
     if bad.any():
         i = int(np.argmax(bad))
         text = lambda v: "missing or not a number" if np.isnan(v) else f"{v:g}"

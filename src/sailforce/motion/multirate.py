@@ -145,3 +145,52 @@ def record_multirate(robot: Robot, adc: ADC, *, reach: float = 0.3, reaches: int
     theta = np.round(motion.q[ticks] / angle_step) * angle_step
     return MultiRateRecording(t, theta, loads, load_t, force[ticks], cells, motion,  # type: ignore[arg-type]
                               np.asarray(offsets, float), gain, adc)  # fmt: skip
+
+
+#: How long each pulley-and-weights hold lasts by default [s]: the slowest preset settles in 0.4 s, and a
+#: person needs a moment to hang the next weight.
+HOLD_S = 1.0
+
+
+@dataclass(frozen=True)
+class HoldRecording:
+    """A pulley-and-weights session through an ADC: held poses and forces, in the multi-rate format."""
+
+    t: np.ndarray  #: ``(n,)`` control ticks [s]
+    theta: np.ndarray  #: ``(n, 2)`` encoder angles [rad] (constant within a hold)
+    force: np.ndarray  #: ``(n, 2)`` the applied force [N] (constant within a hold)
+    loads: np.ndarray  #: ``(n, 2)`` conversions on the ticks they land on, NaN elsewhere
+    load_t: np.ndarray  #: ``(n, 2)`` their data-ready instants [s]
+    cells: tuple[Conversions, Conversions]
+    offsets: np.ndarray
+
+
+def record_holds(robot: Robot, adc: ADC, theta1, theta2, fx, fy, *, hold_s: float = HOLD_S, control_rate_hz: float = 1000.0,
+                 plant_rate_hz: float = MIN_PLANT_RATE_HZ, noise: NoiseModel = NoiseModel(), counts_per_rev: int = 1 << 16,
+                 seed: int = 0, offsets=None) -> HoldRecording:  # fmt: skip
+    """Each (pose, force) held for ``hold_s`` in turn, the arm stepping between them, recorded through ``adc``.
+
+    A conversion whose window straddles a step mixes two holds: the calibration
+    keeps only those whose whole window lies inside one hold.
+    """
+    from ..synthetic import recording
+
+    if adc.ideal:
+        raise InputError("the ideal ADC reads at every tick: a static session without an ADC has no time")
+    theta1, theta2, fx, fy = np.broadcast_arrays(*(np.asarray(a, float) for a in (theta1, theta2, fx, fy)))
+    rng = np.random.default_rng(seed)
+    clean = recording(robot, theta1, theta2, fx, fy, noise=replace(noise, noise_fraction=0.0, quantize=False), seed=seed,
+                      offsets=offsets)  # fmt: skip
+    counts, offsets = clean[2], clean[1]
+    step = int(round(plant_rate_hz / control_rate_hz))
+    fine_t = np.arange(int(round(theta1.size * hold_s * plant_rate_hz))) / plant_rate_hz
+    hold = np.minimum((fine_t / hold_s).astype(int), theta1.size - 1)
+    t = fine_t[::step]
+    sigma = noise_counts(robot, adc, noise)
+    cells = tuple(convert(adc, clock, fine_t, counts[hold, i], t, sigma, rng, noise.quantize)
+                  for i, clock in enumerate(clocks(adc, rng)))  # fmt: skip
+    loads, load_t = on_ticks(t.size, cells)  # type: ignore[arg-type]
+    angle_step = 2 * np.pi / counts_per_rev
+    tick_hold = hold[::step]
+    theta = np.round(np.column_stack([theta1, theta2])[tick_hold] / angle_step) * angle_step
+    return HoldRecording(t, theta, np.column_stack([fx, fy])[tick_hold], loads, load_t, cells, offsets)  # type: ignore[arg-type]

@@ -25,6 +25,16 @@ from ..status import STATUS_NAMES
 OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "status")
 #: With a dynamic term: the subtracted inertial and gravity load of each cell, in reading units, before status.
 MOTION_OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "inertial1", "inertial2", "status")
+#: With a real ADC (multi-rate input): the instant each estimate refers to [s], before status (sailforce.estimate.multirate).
+MULTIRATE_OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "force_t_s", "status")
+MULTIRATE_MOTION_OUTPUT_COLUMNS = ("fx_N", "fy_N", "force_N", "angle_deg", "inertial1", "inertial2", "force_t_s", "status")
+
+
+def output_columns(motion: bool, multirate: bool) -> tuple[str, ...]:
+    """The columns the estimate appends to each row."""
+    if multirate:
+        return MULTIRATE_MOTION_OUTPUT_COLUMNS if motion else MULTIRATE_OUTPUT_COLUMNS
+    return MOTION_OUTPUT_COLUMNS if motion else OUTPUT_COLUMNS
 _STATUS_TEXT = pa.array(STATUS_NAMES).cast(pa.binary())
 
 

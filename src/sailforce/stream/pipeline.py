@@ -25,6 +25,7 @@ from .._signals import signals_deferred
 from ..calibration.file import Calibration
 from ..estimate.estimator import INVALID, STATUS_NAMES
 from ..estimate.filters import LowPass
+from ..estimate.multirate import LOAD_TIME_COLUMNS, MultiRateEstimator
 from ..io.files import atomic_writer
 from ..io.tables import (
     READING_COLUMNS,
@@ -38,8 +39,8 @@ from ..io.tables import (
     read_header,
 )
 from ..status import count_statuses
-from .motion import MotionColumns, MotionRows, MotionStage, motion_columns
-from .output import MOTION_OUTPUT_COLUMNS, OUTPUT_COLUMNS, ParquetTypes, csv_output_header, csv_rows, output_header, output_table
+from .motion import TIME_COLUMN, MotionColumns, MotionRows, MotionStage, motion_columns
+from .output import ParquetTypes, csv_output_header, csv_rows, output_columns, output_header, output_table
 
 
 class ByteSink(Protocol):
@@ -85,6 +86,40 @@ def _loads(values: dict[str, np.ndarray], malformed: np.ndarray, lowpass: LowPas
     return np.where(known[:, None], filtered, loads)  # unknown motion: the raw loads, for the static checks
 
 
+class MultiRateStage:
+    """The multi-rate estimator fed a table's chunks in order (:class:`sailforce.estimate.multirate.MultiRateEstimator`)."""
+
+    def __init__(self, cal: Calibration, source: object, names: list[str], motion: MotionColumns | None):
+        if TIME_COLUMN not in names:
+            raise TableError(f"{source}: the calibration's ADC ({cal.adc.model}) makes this a multi-rate recording, "
+                             f"which needs {TIME_COLUMN}, the time of each encoder tick [s] (docs/reference/multirate.md)")  # fmt: skip
+        self.times = tuple(c for c in LOAD_TIME_COLUMNS if c in names)
+        self.engine = MultiRateEstimator(cal, dynamic=motion is not None)
+
+    @property
+    def needed(self) -> tuple[str, ...]:
+        return (TIME_COLUMN, *self.times)
+
+    def estimate(self, chunk: Chunk, rows: MotionRows | None) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        values, n = chunk.values, chunk.num_rows
+        q = np.radians(np.column_stack([values["theta1_deg"], values["theta2_deg"]]))
+        loads = np.column_stack([values["load1"], values["load2"]])
+        load_t = np.column_stack([values[c] if c in values else np.full(n, np.nan) for c in LOAD_TIME_COLUMNS])
+        out = self.engine.rows(values[TIME_COLUMN], q, loads, load_t, chunk.malformed,
+                               None if rows is None else rows.rate, None if rows is None else rows.accel)  # fmt: skip
+        return out.columns, out.status
+
+
+def _multirate(cal: Calibration, source: object, names: list[str], motion: MotionColumns | None,
+               lowpass: LowPass | None) -> MultiRateStage | None:  # fmt: skip
+    if not cal.multirate:
+        return None
+    if lowpass is not None:
+        raise TableError(f"{source}: the calibration's ADC ({cal.adc.model}) already filters each conversion; "
+                         "a low-pass on its conversions would blur their instants: leave out --lowpass-Hz")  # fmt: skip
+    return MultiRateStage(cal, source, names, motion)
+
+
 def _estimate(cal: Calibration, values: dict[str, np.ndarray], malformed: np.ndarray, loads: np.ndarray,
               motion: MotionRows | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
@@ -110,9 +145,13 @@ def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: ParquetType
 
 
 def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: ParquetTypes | None,
-                  motion: MotionRows | None = None, on_rows: RowListener | None = None):  # fmt: skip
-    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and its size."""
-    columns, status = _estimate(cal, chunk.values, chunk.malformed, loads, motion)
+                  motion: MotionRows | None = None, on_rows: RowListener | None = None,
+                  estimated: tuple[dict[str, np.ndarray], np.ndarray] | None = None):  # fmt: skip
+    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and its size.
+
+    ``estimated`` holds the chunk's columns and statuses when they were made in order beforehand (multi-rate).
+    """
+    columns, status = estimated if estimated is not None else _estimate(cal, chunk.values, chunk.malformed, loads, motion)
     if on_rows is not None:
         on_rows(chunk, columns, status)
     counts = count_statuses(status)
@@ -160,7 +199,9 @@ def stream_estimate(
     names = header.names if header is not None else list(parquet_schema(source, READING_COLUMNS).names)
     motion = table_motion(cal, source, names)
     stage = MotionStage(cal, motion, dt) if motion is not None else None
-    needed = READING_COLUMNS + (motion.names if motion is not None else ())
+    multirate = _multirate(cal, source, names, motion, lowpass)
+    needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
+                                 + (multirate.needed if multirate is not None else ())))  # fmt: skip
     writer = None
 
     def write(job: Future) -> None:
@@ -178,12 +219,13 @@ def stream_estimate(
     with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
         try:
             if parquet is None:
-                stream.write(csv_output_header(source, header, MOTION_OUTPUT_COLUMNS if motion else OUTPUT_COLUMNS))
+                stream.write(csv_output_header(source, header, output_columns(motion is not None, multirate is not None)))
             pending: deque[Future] = deque()
 
             def submit(chunk: Chunk, rows: MotionRows | None) -> None:
                 loads = _loads(chunk.values, chunk.malformed, lowpass, rows)  # in order: the filter runs through
-                pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet, rows))
+                estimated = multirate.estimate(chunk, rows) if multirate is not None else None  # in order: it has state
+                pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet, rows, None, estimated))
                 while len(pending) >= WORKERS:
                     write(pending.popleft())
 
@@ -191,7 +233,7 @@ def stream_estimate(
                 if stage is not None:
                     for chunk, rows in stage.push(job()):
                         submit(chunk, rows)
-                elif lowpass is None:  # chunks are independent: parse them on the workers too
+                elif lowpass is None and multirate is None:  # chunks are independent: parse them on the workers too
                     pending.append(pool.submit(_job_output, cal, job, parquet))
                     while len(pending) >= WORKERS:
                         write(pending.popleft())
@@ -238,9 +280,11 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     header = read_header(source, first, READING_COLUMNS)
     motion = table_motion(cal, source, header.names)
     stage = MotionStage(cal, motion, dt) if motion is not None else None
-    needed = READING_COLUMNS + (motion.names if motion is not None else ())
+    multirate = _multirate(cal, source, header.names, motion, lowpass)
+    needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
+                                 + (multirate.needed if multirate is not None else ())))  # fmt: skip
     out = open_output()
-    out.write(header.line + output_header(MOTION_OUTPUT_COLUMNS if motion else OUTPUT_COLUMNS))
+    out.write(header.line + output_header(output_columns(motion is not None, multirate is not None)))
     out.flush()
     if cal.dynamics is not None and on_motion is not None:
         on_motion(stage)
@@ -248,13 +292,14 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     def write(chunk: Chunk, rows: MotionRows | None) -> None:
         nonlocal counts
         loads = _loads(chunk.values, chunk.malformed, lowpass, rows)
+        estimated = multirate.estimate(chunk, rows) if multirate is not None else None
         if _discarding(out):  # the numbers alone, for the listener
-            columns, status = _estimate(cal, chunk.values, chunk.malformed, loads, rows)
+            columns, status = estimated or _estimate(cal, chunk.values, chunk.malformed, loads, rows)
             if on_rows is not None:
                 on_rows(chunk, columns, status)
             counts += count_statuses(status)
             return
-        output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows)
+        output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows, estimated)
         out.write(output)
         out.flush()
         counts += chunk_counts

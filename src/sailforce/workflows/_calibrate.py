@@ -25,13 +25,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..adc import ADC
 from ..calibration.file import Calibration
 from ..errors import InputError, TableError
 from ..estimate.dynamic import DynamicTerm
+from ..estimate.multirate import LOAD_TIME_COLUMNS
 from ..fit.calibration import FitReport, equivalent_capacity, fit_calibration
 from ..fit.dynamic import DynamicFit, fit_dynamic_term, prior_term
+from ..fit.multirate import HoldSamples, MultiRateDynamicFit, fit_dynamic_multirate, hold_samples
 from ..fit.physics import DEFAULT_TRANSDUCTION
-from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, read_clean
+from ..io.tables import READING_COLUMNS, REFERENCE_COLUMNS, read_clean, table_names
 from ..robot import Robot
 
 #: Where the readings come from: a CSV or Parquet file, or columns in memory (angles in degrees, as in the files).
@@ -49,6 +52,8 @@ class CalibrationRun:
     fit: FitReport  #: the static fit (its physics identification in ``fit.physics``)
     dynamic_fit: DynamicFit | None = None  #: the dynamic term's identification, from a free-motion recording
     prior: DynamicTerm | None = None  #: the robot file's predicted dynamic term, beside an identified one
+    multirate: MultiRateDynamicFit | None = None  #: the same through a real ADC: with its delay and measured clocks
+    holds: HoldSamples | None = None  #: a multi-rate static recording's holds, and the conversions used
 
 
 def file_sha256(path: str | Path) -> str:
@@ -57,18 +62,32 @@ def file_sha256(path: str | Path) -> str:
         return hashlib.file_digest(stream, "sha256").hexdigest()
 
 
-def _columns(readings: Readings, needed: tuple[str, ...], what: str) -> tuple[dict[str, np.ndarray], str]:
-    """The needed columns and the data's SHA-256 (a file's; empty for columns in memory)."""
+def _columns(readings: Readings, needed: tuple[str, ...], what: str, *, sparse: tuple[str, ...] = (),
+             optional: tuple[str, ...] = ()) -> tuple[dict[str, np.ndarray], str]:  # fmt: skip
+    """The needed columns (and the ``optional`` ones present) and the data's SHA-256 (a file's; empty in memory).
+
+    ``sparse`` columns may be empty (NaN): a multi-rate table's loads and their instants.
+    """
     if isinstance(readings, str | Path):
-        return read_clean(readings, needed, what), file_sha256(readings)
+        present = tuple(c for c in optional if c in table_names(readings)) if optional else ()
+        return read_clean(readings, needed + present, what, sparse=sparse + present), file_sha256(readings)
     missing = [name for name in needed if name not in readings]
     if missing:
         raise TableError(f"{what}: missing column(s) {', '.join(missing)}; expected {', '.join(needed)}")
-    values = {name: np.asarray(readings[name], dtype=float).ravel() for name in needed}
-    if not all(np.all(np.isfinite(v)) for v in values.values()):
-        bad = next(name for name, v in values.items() if not np.all(np.isfinite(v)))
-        raise TableError(f"{what}: column {bad} holds a value that is not a finite number; it must be clean")
+    names = needed + tuple(c for c in optional if c in readings)
+    values = {name: np.asarray(readings[name], dtype=float).ravel() for name in names}
+    for name, v in values.items():
+        if not np.all(np.isfinite(v) | (np.isnan(v) & (name in sparse or name in optional))):
+            raise TableError(f"{what}: column {name} holds a value that is not a finite number; it must be clean")
     return values, ""
+
+
+def _multirate_columns(readings: Readings, needed: tuple[str, ...], what: str):
+    """A multi-rate table's columns: ``t_s``, the angles, the sparse loads, their instants (NaN where absent)."""
+    values, sha256 = _columns(readings, ("t_s",) + needed, what, sparse=("load1", "load2"), optional=LOAD_TIME_COLUMNS)
+    n = values["t_s"].size
+    load_t = np.column_stack([values.get(c, np.full(n, np.nan)) for c in LOAD_TIME_COLUMNS])
+    return values, load_t, sha256
 
 
 def calibration_run(
@@ -83,13 +102,28 @@ def calibration_run(
     free_motion: Readings | None = None,
     dynamics: str | None = None,
     progress: Callable[[int, int], None] | None = None,
+    adc: ADC | None = None,
 ) -> CalibrationRun:
     """:func:`calibrate`, with the reports of the fits (what ``sail calibrate`` prints)."""
     if free_motion is not None and dynamics is not None:
         raise InputError("dynamics chooses a dynamic term without a free-motion recording; give one or the other")
     if dynamics not in (None, "prior", "none"):
         raise InputError(f"dynamics = {dynamics!r}: expected 'prior' or 'none'")
-    values, sha256 = _columns(readings, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
+    adc = robot.adc if adc is None else adc
+    holds = None
+    if adc.ideal:
+        values, sha256 = _columns(readings, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
+    else:  # held poses and forces through a real ADC: one sample per hold, from its settled conversions
+        values, load_t, sha256 = _multirate_columns(readings, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
+        theta = np.radians(np.column_stack([values["theta1_deg"], values["theta2_deg"]]))
+        holds = hold_samples(adc, values["t_s"], theta, np.column_stack([values["fx_N"], values["fy_N"]]),
+                             np.column_stack([values["load1"], values["load2"]]), load_t)  # fmt: skip
+        if holds.used_holds == 0:
+            raise TableError(f"Calibration data: none of its {holds.holds} holds has a settled conversion of each cell "
+                             f"(a whole {adc.settling_s * 1e3:g} ms filter window inside the hold): hold each pose and "
+                             "force longer")  # fmt: skip
+        values = {"theta1_deg": np.degrees(holds.theta1), "theta2_deg": np.degrees(holds.theta2), "fx_N": holds.fx,
+                  "fy_N": holds.fy, "load1": holds.load1, "load2": holds.load2}  # fmt: skip
     if transduction is None and model in ("physics", "auto"):  # what the cells read: the robot file's, else the fit's default
         transduction = robot.loadcell.reading or DEFAULT_TRANSDUCTION
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
@@ -103,19 +137,22 @@ def calibration_run(
         arm=robot.arm, model=fitted.model, offsets=(float(fitted.offsets[0]), float(fitted.offsets[1])),
         capacity=(float(capacity[0]), float(capacity[1])), delta_range=report.model_delta_range,
         load_range=((float(loads[0].min()), float(loads[0].max())), (float(loads[1].min()), float(loads[1].max()))),
-        load_unit=load_unit, metrics=_metrics(report, model), data_sha256=sha256,
+        load_unit=load_unit, metrics=_metrics(report, model), data_sha256=sha256, adc=adc,
     )  # fmt: skip
+    if holds is not None:
+        cal = replace(cal, metrics={**cal.metrics, "holds": holds.holds, "holds_used": holds.used_holds,
+                                    "conversions": list(holds.conversions), "conversions_settled": list(holds.settled)})  # fmt: skip
     if free_motion is not None:
-        return _with_dynamics(cal, report, robot, free_motion)
+        return _with_dynamics(cal, report, robot, free_motion, holds)
     if dynamics == "prior":
         cal = replace(cal, dynamics=prior_term(robot), dynamics_source="prior")
-    return CalibrationRun(cal, report)
+    return CalibrationRun(cal, report, holds=holds)
 
 
 def calibrate(readings: Readings, *, robot: Robot, model: str = "auto", free: tuple[str, ...] | None = None,
               transduction: str | None = None, capacity: tuple[float, float] | None = None, load_unit: str = "raw",
               free_motion: Readings | None = None, dynamics: str | None = None,
-              progress: Callable[[int, int], None] | None = None) -> Calibration:  # fmt: skip
+              progress: Callable[[int, int], None] | None = None, adc: ADC | None = None) -> Calibration:  # fmt: skip
     """A calibration from calibration readings (module docstring): what ``sail calibrate`` writes.
 
     ``readings`` is a CSV or Parquet file, or a mapping of columns, with
@@ -126,10 +163,13 @@ def calibrate(readings: Readings, *, robot: Robot, model: str = "auto", free: tu
     ``free_motion`` (``t_s, theta1_deg, theta2_deg, load1, load2``, nobody
     holding the handle) identifies the dynamic term; else ``dynamics="prior"``
     stores the robot file's.  ``progress(done, total)`` follows the physics
-    fit's starts.  Save it with :meth:`Calibration.save`.
+    fit's starts.  ``adc`` (default: the robot's) says how the readings were
+    converted: a real one makes them multi-rate tables (``t_s`` and sparse
+    loads, :mod:`sailforce.fit.multirate`).  Save it with :meth:`Calibration.save`.
     """
     return calibration_run(readings, robot=robot, model=model, free=free, transduction=transduction, capacity=capacity,
-                           load_unit=load_unit, free_motion=free_motion, dynamics=dynamics, progress=progress).calibration  # fmt: skip
+                           load_unit=load_unit, free_motion=free_motion, dynamics=dynamics, progress=progress,
+                           adc=adc).calibration  # fmt: skip
 
 
 def _metrics(report: FitReport, selection: str) -> dict:
@@ -149,8 +189,20 @@ def physics_metrics(physics) -> dict:
             "cv_rmse_N": physics.cv_rmse_N, "map_order": physics.compensator.order, "map_error": physics.map_error}  # fmt: skip
 
 
-def _with_dynamics(cal: Calibration, report: FitReport, robot: Robot, free_motion: Readings) -> CalibrationRun:
+def _with_dynamics(cal: Calibration, report: FitReport, robot: Robot, free_motion: Readings,
+                   holds: HoldSamples | None = None) -> CalibrationRun:  # fmt: skip
     """The dynamic term from a free-motion recording, on top of the static calibration ``cal``."""
+    if cal.multirate:
+        values, load_t, _ = _multirate_columns(free_motion, READING_COLUMNS, "A free-motion recording")
+        theta = np.radians(np.column_stack([values["theta1_deg"], values["theta2_deg"]]))
+        multi = fit_dynamic_multirate(cal, cal.adc, values["t_s"], theta, np.column_stack([values["load1"], values["load2"]]),
+                                      load_t)  # fmt: skip
+        metrics = {**cal.metrics, "dynamics_rmse_raw": multi.rmse, "dynamics_condition": multi.condition,
+                   "dynamics_conversions": multi.conversions, "adc_delay_s": multi.delay_s,
+                   "adc_delay_se_s": multi.delay_se_s, "adc_rates_Hz": [c.rate_Hz for c in multi.clocks],
+                   "adc_phases_s": [c.phase_s for c in multi.clocks], "motion_bandwidth_Hz": multi.motion_bandwidth_Hz}  # fmt: skip
+        cal = replace(cal, dynamics=multi.term, dynamics_source="free-motion", metrics=metrics, adc_delay_s=multi.delay_s)
+        return CalibrationRun(cal, report, prior=prior_term(robot), multirate=multi, holds=holds)
     try:
         values, _ = _columns(free_motion, FREE_MOTION_COLUMNS, "A free-motion recording")
     except TableError as exc:
