@@ -40,7 +40,7 @@ from ..motion.dynamics import PARAMETERS, base_parameters, shear_regressor
 from .dynamic import MAX_CONDITION
 
 #: The share of the joint accelerations' energy below the motion's bandwidth (:func:`motion_bandwidth`).
-MOTION_ENERGY = 0.95
+MOTION_ENERGY = 0.99
 #: Delays tried on the grid, over [-T, T] (the refinement then finds the minimum between two of them).
 DELAY_GRID = 41
 #: A chip's measured rate may differ from the nominal by its tolerance; beyond this multiple of it, a warning.
