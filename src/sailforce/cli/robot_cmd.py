@@ -44,7 +44,31 @@ def robot_show(robot_path: Path | None) -> None:
     table.add_row("cond(J) at delta = 90 deg (best)", f"{float(arm.condition(math.pi / 2, 0.0)):.3f}")
     console = Console()
     console.print(table)
+    _print_adc(console, robot_)
     _print_inertia(console, robot_)
+
+
+def _print_adc(console: Console, robot_) -> None:
+    from ..design.maps import adc_noise_at_hand
+
+    adc = robot_.adc
+    if adc.ideal:
+        console.print("ADC: ideal (a reading at every control tick, unfiltered); set [adc] model = \"hx711-80\" ... for a "
+                      "real one (docs/reference/adc.md)", highlight=False)  # fmt: skip
+        return
+    table = Table(title=f"ADC: {adc.model} (docs/reference/adc.md)")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    rows = (("conversion rate", f"{adc.rate_Hz:g} SPS ± {adc.rate_tolerance:.1%}"),
+            ("digital filter", f"sinc{adc.sinc_order}, settles in {adc.settling_s * 1e3:g} ms"),
+            ("group delay (latency of a reading)", f"{adc.group_delay_s * 1e3:g} ms"),
+            ("-3 dB bandwidth", f"{adc.bandwidth_Hz:.3g} Hz"),
+            ("input noise at that rate", f"{adc.noise_nV:g} nV rms ({adc.noise_mV_V:.3g} mV/V on 5 V)"),
+            ("that noise in N at the hand (1 sigma, worst direction, theta1 = 90°, theta2 = 0)", f"{adc_noise_at_hand(robot_):.3g} N"),
+            ("clocking", "one chip, both cells at once" if adc.simultaneous else "one chip per cell, each its own clock"))  # fmt: skip
+    for name, value in rows:
+        table.add_row(name, value)
+    console.print(table)
 
 
 def _print_inertia(console: Console, robot_) -> None:

@@ -202,3 +202,20 @@ def compensation_need(response: ArmResponse) -> CompensationNeed:
     actual = response.signal("bridge")
     ratio = (actual[..., 0] + 1j * actual[..., 1]) / (ideal[..., 0] + 1j * ideal[..., 1])
     return CompensationNeed(np.degrees(np.angle(ratio)), np.abs(ratio))
+
+
+def adc_noise_at_hand(robot, theta1: float = np.pi / 2, theta2: float = 0.0) -> float:
+    """The 1-sigma force noise in the worst direction [N] that the ADC's input noise alone gives at a pose [rad].
+
+    The cells read the shears of a pin-jointed arm, ``V_i = (J^T F)_i / l_i``
+    (docs/errata.md, Physics), through their rated output
+    (``rated_output_mV_V / capacity_N`` per newton of shear); the ADC's noise
+    (:attr:`sailforce.adc.ADC.noise_mV_V`) goes back through that map
+    (:func:`resolution`).  The ideal ADC has none.
+    """
+    cell = robot.loadcell
+    if robot.adc.noise_nV == 0:
+        return 0.0
+    jt = np.swapaxes(jacobian(robot.arm, theta1, theta2), -1, -2)
+    sensing = cell.rated_output_mV_V / cell.capacity_N * jt / np.array([robot.arm.l1, robot.arm.l2])[:, None]
+    return float(resolution(sensing, robot.adc.noise_mV_V).worst)

@@ -203,10 +203,18 @@ class MatrixCompensator:
         return np.moveaxis(np.polynomial.chebyshev.chebval(x, self.coefficients, tensor=True), (0, 1), (-2, -1))
 
     def sensing_entries(self, delta, jt: Entries) -> Entries:
-        """M's entries: C(delta) times J^T, with C from the Chebyshev basis times the coefficients (one BLAS product)."""
+        """M's entries: C(delta) times J^T, with C = sum_k c_k T_k(x) summed term by term.
+
+        Term by term, not as one BLAS product: a product's summation order
+        depends on how many rows it is given, and a stream cut into other
+        chunks would then differ from its file in the last digit.
+        """
         x = _chebyshev_argument(np.asarray(delta, dtype=float), self.delta_range)
         basis = np.polynomial.chebyshev.chebvander(x, self.order).reshape(x.shape + (self.order + 1,))  # (..., K)
-        c = basis @ self.coefficients.reshape(self.order + 1, 4)  # (..., 4): C00 C01 C10 C11
+        coefficients = self.coefficients.reshape(self.order + 1, 4)
+        c = basis[..., 0, None] * coefficients[0]  # (..., 4): C00 C01 C10 C11
+        for k in range(1, self.order + 1):
+            c = c + basis[..., k, None] * coefficients[k]
         c00, c01, c10, c11 = (c[..., k] for k in range(4))
         return (c00 * jt[0] + c01 * jt[2], c00 * jt[1] + c01 * jt[3], c10 * jt[0] + c11 * jt[2], c10 * jt[1] + c11 * jt[3])
 
