@@ -305,7 +305,8 @@ def _write(rec, path: Path) -> None:
     names = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "load1_t_s", "load2_t_s")
     with numeric_table_writer(path, names, missing="") as write:
         write({"t_s": rec.t, "theta1_deg": np.degrees(rec.theta[:, 0]), "theta2_deg": np.degrees(rec.theta[:, 1]),
-               "load1": rec.loads[:, 0], "load2": rec.loads[:, 1], "load1_t_s": rec.load_t[:, 0], "load2_t_s": rec.load_t[:, 1]})  # fmt: skip
+               "load1": rec.loads[:, 0], "load2": rec.loads[:, 1], "load1_t_s": rec.load_t[:, 0],
+               "load2_t_s": rec.load_t[:, 1]})  # fmt: skip
 
 
 def test_a_file_and_a_live_stream_give_the_same_bytes(rig, tmp_path):
