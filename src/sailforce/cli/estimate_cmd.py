@@ -121,6 +121,10 @@ def status_reasons(cal, counts: dict[str, int]) -> list[str]:
         reasons.append(f"motion-unknown: within {half * 1e3:g} ms (half the rate window) of the start, the end, a gap "
                        f"or an invalid row, or moving faster than an arm can ({MAX_JOINT_RATE:g} rad/s, "
                        f"{MAX_JOINT_ACCEL:g} rad/s^2): no force")  # fmt: skip
+    if counts.get("motion-unknown") and cal.multirate:
+        reasons.append(f"motion-unknown ({cal.adc.model}): before both cells have a conversion whose whole "
+                       f"{cal.adc.settling_s * 1e3:g} ms window lies in the recording, or a window over a gap or unknown "
+                       "rates: no force")  # fmt: skip
     return reasons
 
 
