@@ -332,3 +332,18 @@ def test_a_multirate_estimate_needs_the_time_and_no_lowpass(rig, tmp_path):
         stream_estimate(cal, tmp_path / "no_time.csv", tmp_path / "out.csv")
     with pytest.raises(TableError, match="already filters"):
         stream_estimate(cal, tmp_path / "task.csv", tmp_path / "out.csv", lowpass=LowPass(20.0, 1000.0))
+
+
+# -- design -------------------------------------------------------------------------------------------------------
+def test_design_reports_each_adc_s_latency_bandwidth_resolution_and_reach_error():
+    from sailforce.design import run_sweep
+    from sailforce.design.sweep import GridSpec, parse_sweep
+
+    result = run_sweep(ROBOT, [parse_sweep("adc.model=hx711-10,hx711-80,ads131m02-1000", ROBOT)], grid=GridSpec(5))
+    c = result.columns
+    assert list(c["adc.model"]) == ["hx711-10", "hx711-80", "ads131m02-1000"]
+    np.testing.assert_allclose(c["adc_latency_ms"], [200.0, 25.0, 1.5])
+    np.testing.assert_allclose(c["adc_bandwidth_Hz"], [PRESETS[n].bandwidth_Hz for n in c["adc.model"]])
+    slow, hx80, fast = c["reach_error_N"]
+    assert slow > 10 * hx80 and hx80 < 0.15 and fast < 0.15  # the 10 SPS window smears a reach; 80 SPS follows it
+    assert c["adc_resolution_N"][0] < c["adc_resolution_N"][1]  # quieter at 10 SPS (50 nV against 90 nV)

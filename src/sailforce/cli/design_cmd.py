@@ -131,10 +131,16 @@ def _print_sweep(console: Console, result) -> None:
     table = Table(title=f"{len(result)} variants in {result.seconds:.1f} s: {len(ranked)} meet the requirements, "
                         f"{int(result.pareto.sum())} on the Pareto set" + (f", {failed} FAILED" if failed else ""))  # fmt: skip
     names = [axis.name for axis in result.axes]
-    for name in ("rank", *names, "resolution [N]", "overload [N]", "f1 [Hz]"):
+    adc = "reach_error_N" in c  # a real ADC: its latency, bandwidth and the error it leaves in a reach
+    heads = ("latency [ms]", "-3 dB [Hz]", "ADC noise [N]", "reach error [N]") if adc else ()
+    for name in ("rank", *names, "resolution [N]", "overload [N]", "f1 [Hz]", *heads):
         table.add_column(name, justify="right")
     for i in ranked[:10]:
         values = [c[n][i] if isinstance(c[n][i], str) else f"{c[n][i]:.4g}" for n in names]
+        more = [f"{c[k][i]:.3g}" for k in ("adc_latency_ms", "adc_bandwidth_Hz", "adc_resolution_N", "reach_error_N")] if adc else []
         table.add_row(str(c["rank"][i]), *values, f"{c['resolution_N'][i]:.3g}", f"{c['overload_N'][i]:.4g}",
-                      f"{c['first_frequency_Hz'][i]:.3g}")  # fmt: skip
+                      f"{c['first_frequency_Hz'][i]:.3g}", *more)  # fmt: skip
     console.print(table)
+    if adc:
+        console.print("reach error: the RMS force error at each estimate's instant over a 0.3 m reach at 3 m/s² peak, "
+                      "noise-free (the ADC's timing alone; docs/reference/adc.md)", highlight=False)

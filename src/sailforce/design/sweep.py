@@ -40,6 +40,7 @@ from ..io.robotkeys import get_key, with_keys
 from ..kinematics import jacobian_condition
 from ..robot import Robot
 from ..sweep import SpecError, parse_spec
+from .adc import ADC_METRICS, DEFAULT_PEAK_ACCELERATION, adc_summary
 from .maps import DEFAULT_SAFETY_FACTOR, compensation_need, overload, resolution
 from .study import DEFAULT_DELTA_DEG, DEFAULT_GRID, DEFAULT_THETA1_DEG, DEFAULT_THETA2_DEG, DesignError, design_grid, summarise
 
@@ -198,6 +199,7 @@ class Task:
     robot: Robot
     grid: GridSpec = field(default_factory=GridSpec)
     safety_factor: float = DEFAULT_SAFETY_FACTOR
+    peak_acceleration: float = DEFAULT_PEAK_ACCELERATION  #: of the reach a real ADC's error is measured in [m/s^2]
 
 
 def evaluate(task: Task) -> dict[str, Any]:
@@ -215,7 +217,9 @@ def evaluate(task: Task) -> dict[str, Any]:
         "phase_need_deg": need.worst_phase_deg, "amplitude_need": need.worst_amplitude,
         "condition": jacobian_condition(robot.arm, grid.theta1, grid.theta2),
     })  # fmt: skip
+    extra = adc_summary(robot, task.peak_acceleration) if not robot.adc.ideal else {}
     return {
+        **extra,
         "poses": int(grid.theta1.size),
         "resolution_N": summary["resolution_N"]["worst"], "resolution_median_N": summary["resolution_N"]["median"],
         "overload_N": summary["overload_N"]["worst"], "overload_median_N": summary["overload_N"]["median"],
@@ -308,7 +312,8 @@ def run_sweep(robot: Robot, axes: Sequence[Axis], *, grid: GridSpec | None = Non
         columns[key] = np.array([float(v.settings[key]) for v in todo])
     for key in sorted({k for v in todo for k in v.extra}):
         columns[key] = np.array([float(v.extra.get(key, np.nan)) for v in todo])
-    for metric in METRICS:
+    real_adc = any(not v.robot.adc.ideal for v in todo)
+    for metric in METRICS + (ADC_METRICS if real_adc else ()):
         text = metric == "overload_limit"
         columns[metric] = np.array([row.get(metric, "" if text else np.nan) for row in rows],
                                    dtype=object if text else float)  # fmt: skip
