@@ -347,3 +347,12 @@ def test_design_reports_each_adc_s_latency_bandwidth_resolution_and_reach_error(
     slow, hx80, fast = c["reach_error_N"]
     assert slow > 10 * hx80 and hx80 < 0.15 and fast < 0.15  # the 10 SPS window smears a reach; 80 SPS follows it
     assert c["adc_resolution_N"][0] < c["adc_resolution_N"][1]  # quieter at 10 SPS (50 nV against 90 nV)
+
+
+def test_a_broken_row_is_invalid_and_the_stream_goes_on(rig):
+    *_, cal, task = rig
+    broken = replace(task, theta=task.theta.copy())
+    broken.theta[1500, 0] = np.nan
+    columns, status = _estimate(cal, broken)
+    assert status[1500] == 4 and np.isnan(columns["fx_N"][1500]) and np.isnan(columns["force_t_s"][1500])  # invalid
+    assert (status[3000:] == OK).mean() > 0.95  # the rows after it have their estimates again

@@ -35,7 +35,9 @@ Statuses, per estimate, in the estimator's precedence
 ``saturated`` (a conversion used beyond the capacity), ``motion-unknown``
 (a window not covered by known ticks and rates: the recording's start,
 gaps, unknown rates; and every row before both cells have one), and
-``extrapolated`` (delta at ``c*`` outside the calibrated range).
+``extrapolated`` (delta at ``c*`` outside the calibrated range).  A row
+whose own time or angles are not numbers (or that is malformed) is
+``invalid`` and carries no force, though the estimate it would carry lives on.
 
 The estimator is fed the table's rows in order (:meth:`MultiRateEstimator.rows`)
 and keeps only a window's worth of them, so a file and a live stream cut
@@ -319,6 +321,7 @@ class MultiRateEstimator:
         self._trim()
         status = out[:, 5].astype(np.int8)
         fx, fy = out[:, 0].copy(), out[:, 1].copy()
+        malformed = malformed | ~np.isfinite(t) | ~np.all(np.isfinite(q), axis=1)  # a row of its own that is broken
         status[malformed] = INVALID
         fx[malformed], fy[malformed] = np.nan, np.nan
         columns = {"fx_N": fx, "fy_N": fy, "force_N": np.hypot(fx, fy), "angle_deg": np.degrees(np.arctan2(fy, fx))}
