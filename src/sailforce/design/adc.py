@@ -21,7 +21,7 @@ from ..motion.differentiate import derivatives
 from ..motion.multirate import record_multirate
 from ..motion.reaching import MINJERK_PEAK_ACCELERATION, counts_per_newton
 from ..robot import Robot
-from ..sensing.maps import TorqueScale
+from ..sensing.maps import MatrixCompensator
 from ..status import OK
 from ..synthetic import NoiseModel
 from .maps import adc_noise_at_hand
@@ -39,10 +39,12 @@ ADC_METRICS = ("adc_latency_ms", "adc_bandwidth_Hz", "adc_resolution_N", "reach_
 def exact_calibration(robot: Robot) -> Calibration:
     """The calibration a simulated rig implies: the pin-jointed arm's map in counts, its dynamic term, its ADC."""
     gain = counts_per_newton(robot)
-    model = TorqueScale(robot.arm, (robot.arm.l1 / gain, robot.arm.l2 / gain))
+    delta_range = (0.05, np.pi - 0.05)
+    # the cells read their shears T_i / l_i through the HX711's gain: M = diag(gain / l) J^T, a constant C (order 0)
+    model = MatrixCompensator(robot.arm, np.diag([gain / robot.arm.l1, gain / robot.arm.l2])[None], delta_range)
     capacity = 4.0 * robot.loadcell.capacity_N * gain
     return Calibration(arm=robot.arm, model=model, offsets=(0.0, 0.0), capacity=(capacity, capacity),
-                       delta_range=(0.05, np.pi - 0.05), dynamics=prior_term(robot), dynamics_source="prior", adc=robot.adc)  # fmt: skip
+                       delta_range=delta_range, dynamics=prior_term(robot), dynamics_source="prior", adc=robot.adc)  # fmt: skip
 
 
 def reach_error(robot: Robot, peak_acceleration: float = DEFAULT_PEAK_ACCELERATION, seed: int = 0) -> float:
@@ -54,7 +56,8 @@ def reach_error(robot: Robot, peak_acceleration: float = DEFAULT_PEAK_ACCELERATI
     rec = record_multirate(robot, robot.adc, reach=REACH_M, reaches=2, peak_speed=speed, dwell=0.3,
                            hand_stiffness=HAND_STIFFNESS, noise=NoiseModel(0.0, 0.0, False), offsets=(0.0, 0.0), seed=seed)  # fmt: skip
     cal = exact_calibration(robot)
-    qd, qdd = derivatives(rec.t, rec.theta, cal.dynamics.differentiator)
+    term = prior_term(robot)
+    qd, qdd = derivatives(rec.t, rec.theta, term.differentiator)
     out = MultiRateEstimator(cal).rows(rec.t, rec.theta, rec.loads, rec.load_t, np.zeros(rec.t.size, bool), qd, qdd)
     ok = out.status == OK
     ft = out.columns["force_t_s"]
