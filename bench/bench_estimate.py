@@ -16,8 +16,8 @@ from _timing import best_of
 
 from sailforce import kernel
 from sailforce.arm import Arm
-from sailforce.calibration.compensation import MatrixCompensator
 from sailforce.calibration.file import Calibration
+from sailforce.sensing.maps import MatrixCompensator
 
 N_CALL = 1_000_000
 N_ROWS = int(os.environ.get("SAIL_BENCH_ROWS", 10_000_000))  #: issue 5: a 10-million-row CSV

@@ -6,10 +6,11 @@ import time
 
 import numpy as np
 
-from sailforce.calibration.compensation import estimate_force, fit_matrix_with_offsets
-from sailforce.calibration.physics import fit_physics
-from sailforce.identify import identify_table4
+from sailforce.estimate.estimator import estimate_force
+from sailforce.fit.matrix import fit_matrix_with_offsets
+from sailforce.fit.physics import fit_physics
 from sailforce.loadcell import LoadCell
+from sailforce.paper.table4_fit import identify_table4
 from sailforce.report.results import seed_table4
 from sailforce.robot import Joint, Joints, Robot
 from sailforce.synthetic import NoiseModel, recording

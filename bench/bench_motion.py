@@ -2,7 +2,7 @@
 
 A simulated free-motion recording identifies the term (1 kg handle, 3 deg
 tilt); the task session is then tiled to 2e6 samples at 1 kHz and estimated
-by :func:`sailforce.calibration.inertial.estimate_moving` (rates from the angles, the
+by :func:`sailforce.estimate.dynamic.estimate_moving` (rates from the angles, the
 zero-phase rate filter, the dynamic term) and by the static
 ``Calibration.estimate`` on the same samples, alternately, best of 3.
 """
@@ -13,8 +13,9 @@ import numpy as np
 from _timing import best_of
 
 from sailforce.calibration.file import Calibration
-from sailforce.calibration.fit import fit_calibration
-from sailforce.calibration.inertial import estimate_moving, fit_dynamic_term
+from sailforce.estimate.dynamic import estimate_moving
+from sailforce.fit.calibration import fit_calibration
+from sailforce.fit.dynamic import fit_dynamic_term
 from sailforce.motion.reaching import reaching, record
 from sailforce.robot import Handle, Plane, Robot
 from sailforce.synthetic import calibration_session

@@ -10,8 +10,8 @@ from pathlib import Path
 
 from _timing import best_of
 
+from sailforce.paper.study import run_study
 from sailforce.robot import Robot
-from sailforce.study import run_study
 
 STUDY_TARGET_S = 2.0  #: issue 4: both joint models, no plotting
 TOTAL_TARGET_S = 30.0  #: issue 4: both joint models, all figures and the report

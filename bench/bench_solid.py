@@ -7,10 +7,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from sailforce.paper.study import Protocol
 from sailforce.robot import Robot
 from sailforce.solid import calibrate_depth, solve_pose
 from sailforce.solid.sweep import SolidSettings, run_poses, seed_poses
-from sailforce.study import Protocol
 
 POSE_TARGET_S = 10.0  #: issue 13: a 2-D pose (two load cases) at 2 mm, one core
 SWEEP_TARGET_S = 20 * 60.0  #: issue 13: the seed protocol at 4 mm on two workers
