@@ -288,7 +288,7 @@ def test_the_estimate_does_not_depend_on_how_the_rows_are_cut(rig):
     whole, status = _estimate(cal, task)
     cut, cut_status = _estimate(cal, task, chunk=777)
     for name in whole:
-        np.testing.assert_array_equal(whole[name], cut[name])  # bit for bit: every window sum is exactly rounded
+        np.testing.assert_array_equal(whole[name], cut[name])  # bit for bit: each window summed in one order
     np.testing.assert_array_equal(status, cut_status)
 
 

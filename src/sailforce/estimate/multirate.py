@@ -40,13 +40,15 @@ whose own time or angles are not numbers (or that is malformed) is
 ``invalid`` and carries no force, though the estimate it would carry lives on.
 
 The estimator is fed the table's rows in order (:meth:`MultiRateEstimator.rows`)
-and keeps only a window's worth of them, so a file and a live stream cut
-into other chunks give the same numbers.
+and keeps only a window's worth of them.  Every sum over a window or a run of
+periods is sequential, oldest first, and no matrix product is taken over a
+chunk's rows, so a file and a live stream cut into other chunks give the same
+numbers to the last digit.
 """
 
 from __future__ import annotations
 
-import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -146,18 +148,28 @@ class MultiRateEstimator:
     def _periods(self, cell: _Cell, times: np.ndarray) -> np.ndarray:
         """Each conversion's measured period: the mean of the chip's last intervals (nominal until it has one).
 
-        Every sum here is :func:`math.fsum` (exactly rounded), so that a chunk boundary cannot change a digit.
+        The mean is a sequential sum of at most :data:`PERIOD_MEMORY` intervals, oldest first, so that a chunk
+        boundary cannot change a digit.
         """
         nominal = self.adc.period_s
-        periods = np.empty(times.size)
-        intervals, last = list(cell.intervals), cell.last_time
-        for k, tau in enumerate(times.tolist()):
-            step = tau - last
-            if 0 < step < MISSED_CONVERSION * nominal:  # NaN (no last yet) and missed conversions are left out
-                intervals = (intervals + [step])[-PERIOD_MEMORY:]
-            periods[k] = math.fsum(intervals) / len(intervals) if intervals else nominal
-            last = tau
-        cell.intervals, cell.last_time = np.array(intervals), last
+        steps = np.diff(np.concatenate([[cell.last_time], times]))
+        with np.errstate(invalid="ignore"):
+            good = (steps > 0) & (steps < MISSED_CONVERSION * nominal)  # NaN (no last yet) and missed conversions out
+        kept = np.concatenate([cell.intervals, steps[good]])
+        have = cell.intervals.size + np.cumsum(good)  # intervals known at each conversion
+        if kept.size:
+            lags = np.arange(PERIOD_MEMORY)[None, :]
+            index = (have[:, None] - PERIOD_MEMORY) + lags  # the last PERIOD_MEMORY of them, oldest first
+            use = index >= 0
+            values = np.where(use, kept[np.clip(index, 0, kept.size - 1)], 0.0)
+            n = use.sum(axis=1)
+            sums = np.cumsum(values, axis=1)[:, -1]
+            periods = np.where(n > 0, sums / np.maximum(n, 1), nominal)
+        else:
+            periods = np.full(times.size, nominal)
+        cell.intervals = kept[-PERIOD_MEMORY:]
+        if times.size:
+            cell.last_time = float(times[-1])
         return periods
 
     def _windows(self, cell: int, times: np.ndarray, periods: np.ndarray):
@@ -165,6 +177,8 @@ class MultiRateEstimator:
 
         The weights are the filter's at the ticks in each window, normalised to sum 1; the window is unknown when
         it reaches before the kept ticks, crosses an invalid tick or a gap, or a tick in it has no known rates.
+        Each window is summed oldest tick first by :func:`numpy.cumsum` (a sequential sum): its digits depend on
+        the window's own values only, never on how many rows a chunk held.
         """
         t, m, d = self.ticks["t"], self.ticks["m"], self.ticks["d"]
         rows = np.full((times.size, 2), np.nan)
@@ -175,24 +189,34 @@ class MultiRateEstimator:
         valid_t = np.where(np.isfinite(t), t, -np.inf)
         first = np.searchsorted(valid_t, times - self.adc.sinc_order * periods - 1e-12, side="left")
         last = np.searchsorted(valid_t, times + 1e-12, side="right")  # one past the newest tick in the window
-        for k in range(times.size):
-            a, b = int(first[k]), int(last[k])
-            if a == 0 or b - a < 2 or np.isneginf(valid_t[a - 1 : b]).any():
-                continue  # before the kept ticks (the tick before the window must be known too), or across a bad tick
-            tk = t[a:b]
-            steps = np.diff(tk)
-            if steps.max() > GAP_STEPS * np.median(steps):
-                continue
-            w = np.nan_to_num(self._spline((times[k] - tk) / periods[k]), nan=0.0)
-            mm, dd = m[a:b, 2 * cell : 2 * cell + 2], d[a:b, cell]
-            if not (np.all(np.isfinite(mm)) and np.all(np.isfinite(dd))):
-                continue
-            total = math.fsum(w)
-            if not total > 0:
-                continue
-            rows[k] = (math.fsum(w * mm[:, 0]) / total, math.fsum(w * mm[:, 1]) / total)
-            dynamic[k] = math.fsum(w * dd) / total
-            known[k] = True
+        count = last - first
+        width = int(max(2, count.max()))
+        index = first[:, None] + np.arange(width)[None, :]
+        inside = index < last[:, None]
+        index = np.minimum(index, t.size - 1)
+        tk = np.where(inside, t[index], np.nan)
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a window of one tick has no step: it is refused below
+            steps = np.diff(tk, axis=1)
+            median = np.nanmedian(np.where(np.isfinite(steps), steps, np.nan), axis=1)
+            gap = np.nanmax(np.where(np.isfinite(steps), steps, -np.inf), axis=1) > GAP_STEPS * median
+        before = np.isneginf(valid_t[np.maximum(first - 1, 0)])  # the tick before the window must be known too
+        bad_tick = np.any(inside & np.isneginf(valid_t[index]), axis=1)
+        mm = np.where(inside[:, :, None], m[index][:, :, 2 * cell : 2 * cell + 2], 0.0)
+        dd = np.where(inside, d[index][:, :, cell], 0.0)
+        unknown_tick = np.any(inside & (~np.isfinite(dd) | ~np.all(np.isfinite(mm), axis=2)), axis=1)
+        w = np.nan_to_num(self._spline(np.where(inside, (times[:, None] - tk) / periods[:, None], np.inf)), nan=0.0)
+        w = np.where(inside, w, 0.0)
+        mm, dd = np.nan_to_num(mm), np.nan_to_num(dd)
+        end = np.maximum(count - 1, 0)[:, None]
+        take = lambda x: np.take_along_axis(np.cumsum(x, axis=1), end, axis=1)[:, 0]
+        total = take(w)
+        ok = (first > 0) & (count >= 2) & ~before & ~bad_tick & ~gap & ~unknown_tick & (total > 0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rows[ok, 0] = (take(w * mm[:, :, 0]) / total)[ok]
+            rows[ok, 1] = (take(w * mm[:, :, 1]) / total)[ok]
+            dynamic[ok] = (take(w * dd) / total)[ok]
+        known[ok] = True
         return rows, dynamic, known
 
     def _convert(self, i: int, times: np.ndarray, raw: np.ndarray) -> int:
