@@ -21,14 +21,22 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from sailforce import OK, Handle, Plane, Robot, calibrate, calibration_session, estimate_moving
+from sailforce import (
+    OK,
+    Handle,
+    MotionDataError,
+    NoiseModel,
+    Plane,
+    Robot,
+    calibrate,
+    calibration_session,
+    estimate_moving,
+    session_offsets,
+)
 from sailforce.adc import ADC, PRESETS
-from sailforce.errors import MotionDataError
-from sailforce.estimate.multirate import MultiRateEstimator, held_loads
-from sailforce.motion import reaching, record
-from sailforce.motion.differentiate import derivatives
-from sailforce.motion.multirate import record_holds, record_multirate
-from sailforce.synthetic import NoiseModel, session_offsets
+from sailforce.estimate import MultiRateEstimator, held_loads
+from sailforce.fit import fit_dynamic_term
+from sailforce.motion import derivatives, reaching, record, record_holds, record_multirate
 
 ROBOT = Robot(handle=Handle(mass=1.0), plane=Plane(tilt_deg=3.0))
 
@@ -68,8 +76,6 @@ def ideal_accuracy(offsets) -> float:
     cal = calibrate({"theta1_deg": np.degrees(t1), "theta2_deg": np.degrees(t2), "fx_N": fx, "fy_N": fy, "load1": counts[:, 0],
                      "load2": counts[:, 1]}, robot=ROBOT, model="matrix")  # fmt: skip
     free = record(ROBOT, reaching(ROBOT, reaches=16), offsets=offsets, seed=3)
-    from sailforce.fit import fit_dynamic_term
-
     term = fit_dynamic_term(cal, free.t, free.theta[:, 0], free.theta[:, 1], free.loads[:, 0], free.loads[:, 1]).term
     task = record(ROBOT, reaching(ROBOT, reaches=8), hand_stiffness=100.0, offsets=offsets, seed=7)
     fx_, fy_, st, _ = estimate_moving(cal, term, task.t, task.theta[:, 0], task.theta[:, 1], task.loads[:, 0], task.loads[:, 1])

@@ -720,7 +720,16 @@ def _serial_session(tmp_path, before: bytes, after: bytes, *extra):
     tty.setraw(slave)
     process = subprocess.Popen([str(SAIL), "estimate", "--calibration", str(CAL_PATH), "--serial", os.ttyname(slave),
                                 "-o", "out.csv", *extra], cwd=tmp_path, stderr=subprocess.PIPE, text=True)  # fmt: skip
-    time.sleep(1.5)  # the port is open (and flushed) before the device's lines come: it joins mid-stream
+    name, deadline = os.ttyname(slave), time.monotonic() + 30  # the port is open (and flushed) before the device's
+    while time.monotonic() < deadline and process.poll() is None:  # lines come, however slowly sail starts: it joins
+        try:
+            opened = [os.path.realpath(f"/proc/{process.pid}/fd/{fd}") for fd in os.listdir(f"/proc/{process.pid}/fd")]
+        except OSError:  # a descriptor closed while it was listed
+            opened = []
+        if name in opened:
+            break
+        time.sleep(0.05)
+    time.sleep(0.5)  # past the flush that follows the open
     os.write(master, before)
     time.sleep(0.3)
     os.write(master, after)

@@ -33,7 +33,7 @@ _EXPORTS = {
                "MotionDataError", "NonFiniteInputError", "OutputPathError", "RecordingError", "RegressorError", "RobotFileError",
                "SailError", "ShapeError", "SingularPoseError", "SolverError", "SpecError", "TableError", "ToolError",
                "UnreachablePointError"),
-    "synthetic": ("NoiseModel", "calibration_session", "recording"),
+    "synthetic": ("NoiseModel", "calibration_session", "recording", "session_offsets"),
     "calibration": ("Calibration", "Tare", "tare"),
     "estimate": ("DynamicTerm", "LowPass", "estimate", "estimate_force", "estimate_moving"),
     "fit": ("fit_calibration", "fit_dynamic_term", "fit_physics", "identify", "prior_term"),

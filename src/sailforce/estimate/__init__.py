@@ -11,6 +11,7 @@ from ..status import EXTRAPOLATED, INVALID, MOTION_UNKNOWN, OK, SATURATED, SINGU
 from .dynamic import DynamicTerm, estimate_moving, motion_states, reading_gain
 from .estimator import Sensing, estimate, estimate_calibrated, estimate_force, estimate_with_rates, status_counts
 from .filters import FilterError, LowPass
+from .multirate import MultiRateEstimator, held_loads
 
 __all__ = [
     "EXTRAPOLATED",
@@ -23,10 +24,12 @@ __all__ = [
     "DynamicTerm",
     "FilterError",
     "LowPass",
+    "MultiRateEstimator",
     "Sensing",
     "estimate",
     "estimate_calibrated",
     "estimate_with_rates",
+    "held_loads",
     "estimate_force",
     "estimate_moving",
     "motion_states",

@@ -49,14 +49,11 @@ RATE_WARNING = 1.0
 
 @dataclass(frozen=True)
 class HoldSamples:
-    """One sample per hold: pose [rad], force [N], and each cell's mean settled conversion."""
+    """One sample per hold: pose [rad] ``(k, 2)``, force [N] ``(k, 2)``, and each cell's mean settled conversion ``(k, 2)``."""
 
-    theta1: np.ndarray
-    theta2: np.ndarray
-    fx: np.ndarray
-    fy: np.ndarray
-    load1: np.ndarray
-    load2: np.ndarray
+    pose: np.ndarray
+    force: np.ndarray
+    loads: np.ndarray
     holds: int  #: holds in the recording
     used_holds: int  #: holds with a settled conversion of each cell
     conversions: tuple[int, int]  #: each cell's conversions in the recording
@@ -95,8 +92,7 @@ def hold_samples(adc: ADC, t, theta, force, loads, load_t) -> HoldSamples:
     first = np.searchsorted(ids, np.arange(count))
     keep = np.all(np.isfinite(means), axis=1)
     pose, held = theta[first][keep], force[first][keep]
-    return HoldSamples(pose[:, 0], pose[:, 1], held[:, 0], held[:, 1], means[keep, 0], means[keep, 1], count,
-                       int(keep.sum()), (converted[0], converted[1]), (settled[0], settled[1]))  # fmt: skip
+    return HoldSamples(pose, held, means[keep], count, int(keep.sum()), (converted[0], converted[1]), (settled[0], settled[1]))
 
 
 @dataclass(frozen=True)

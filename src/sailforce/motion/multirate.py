@@ -28,8 +28,7 @@ from ..errors import InputError
 from ..kinematics import forward
 from ..robot import Robot
 from ..synthetic import HX711_COUNTS_PER_MV_V, NoiseModel
-from .dynamics import cell_shears, inertial_parameters
-from .reaching import JointMotion, counts_per_newton, reaching
+from .reaching import JointMotion, cell_counts, reaching
 
 
 @dataclass(frozen=True)
@@ -123,17 +122,9 @@ def record_multirate(robot: Robot, adc: ADC, *, reach: float = 0.3, reaches: int
                          f"multiple of the control rate {control_rate_hz:g} Hz")  # fmt: skip
     rng = np.random.default_rng(seed)
     motion = reaching(robot, reach=reach, reaches=reaches, peak_speed=peak_speed, dwell=dwell, sample_rate_hz=plant_rate_hz)
-    arm = robot.arm
     anchor = hand_anchor(motion.t, motion.target, hand_rise_s)
-    force = hand_stiffness * (anchor - np.column_stack(forward(arm, motion.q[:, 0], motion.q[:, 1])))
-    v1, v2 = cell_shears(arm, inertial_parameters(robot), motion.q[:, 0], motion.q[:, 1], motion.qd[:, 0],
-                         motion.qd[:, 1], motion.qdd[:, 0], motion.qdd[:, 1], gravity=robot.plane.gravity,
-                         fx=force[:, 0], fy=force[:, 1])  # fmt: skip
-    gain = counts_per_newton(robot)
-    rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
-    if offsets is None:
-        offsets = rng.uniform(-1, 1, 2) * noise.offset_fraction * rated
-    counts = np.asarray(offsets, float) + gain * np.column_stack([v1, v2])
+    force = hand_stiffness * (anchor - np.column_stack(forward(robot.arm, motion.q[:, 0], motion.q[:, 1])))
+    counts, offsets, gain = cell_counts(robot, motion, force, offsets, rng, noise)
     step = int(round(ratio))
     ticks = slice(0, None, step)
     t = motion.t[ticks]

@@ -95,6 +95,22 @@ def counts_per_newton(robot: Robot) -> float:
     return robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V / robot.loadcell.capacity_N
 
 
+def cell_counts(robot: Robot, motion: JointMotion, force: np.ndarray, offsets, rng: np.random.Generator,
+                noise: NoiseModel) -> tuple[np.ndarray, np.ndarray, float]:  # fmt: skip
+    """Each cell's noise-free counts ``(n, 2)`` along ``motion`` under the hand's ``force``, the offsets, the gain.
+
+    ``offset + k V`` with ``V`` the shears of :func:`~sailforce.motion.dynamics.cell_shears` and ``k``
+    :func:`counts_per_newton`; the offsets are drawn from ``rng`` when None (within ``noise.offset_fraction``).
+    """
+    v1, v2 = cell_shears(robot.arm, inertial_parameters(robot), motion.q[:, 0], motion.q[:, 1], motion.qd[:, 0],
+                         motion.qd[:, 1], motion.qdd[:, 0], motion.qdd[:, 1], gravity=robot.plane.gravity,
+                         fx=force[:, 0], fy=force[:, 1])  # fmt: skip
+    gain = counts_per_newton(robot)
+    if offsets is None:
+        offsets = rng.uniform(-1, 1, 2) * noise.offset_fraction * robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
+    return np.asarray(offsets, float) + gain * np.column_stack([v1, v2]), np.asarray(offsets, float), gain
+
+
 @dataclass(frozen=True)
 class MotionRecording:
     """A simulated session: what the lab records, and the truth behind it."""
@@ -116,17 +132,10 @@ def record(robot: Robot, motion: JointMotion, *, hand_stiffness: float = 0.0, no
     ``hand_stiffness`` [N/m] (0: free motion, nobody holding the handle).
     """
     rng = np.random.default_rng(seed)
-    arm = robot.arm
-    x = np.column_stack(forward(arm, motion.q[:, 0], motion.q[:, 1]))
+    x = np.column_stack(forward(robot.arm, motion.q[:, 0], motion.q[:, 1]))
     force = hand_stiffness * (motion.target - x)
-    v1, v2 = cell_shears(arm, inertial_parameters(robot), motion.q[:, 0], motion.q[:, 1], motion.qd[:, 0],
-                         motion.qd[:, 1], motion.qdd[:, 0], motion.qdd[:, 1], gravity=robot.plane.gravity,
-                         fx=force[:, 0], fy=force[:, 1])  # fmt: skip
-    gain = counts_per_newton(robot)
+    loads, offsets, gain = cell_counts(robot, motion, force, offsets, rng, noise)
     rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
-    if offsets is None:
-        offsets = rng.uniform(-1, 1, 2) * noise.offset_fraction * rated
-    loads = np.asarray(offsets, float) + gain * np.column_stack([v1, v2])
     loads = loads + rng.normal(0.0, noise.noise_fraction * rated, loads.shape)
     if noise.quantize:
         loads = np.round(loads)

@@ -122,8 +122,8 @@ def calibration_run(
             raise TableError(f"Calibration data: none of its {holds.holds} holds has a settled conversion of each cell "
                              f"(a whole {adc.settling_s * 1e3:g} ms filter window inside the hold): hold each pose and "
                              "force longer")  # fmt: skip
-        values = {"theta1_deg": np.degrees(holds.theta1), "theta2_deg": np.degrees(holds.theta2), "fx_N": holds.fx,
-                  "fy_N": holds.fy, "load1": holds.load1, "load2": holds.load2}  # fmt: skip
+        values = {"theta1_deg": np.degrees(holds.pose[:, 0]), "theta2_deg": np.degrees(holds.pose[:, 1]),
+                  "fx_N": holds.force[:, 0], "fy_N": holds.force[:, 1], "load1": holds.loads[:, 0], "load2": holds.loads[:, 1]}  # fmt: skip
     if transduction is None and model in ("physics", "auto"):  # what the cells read: the robot file's, else the fit's default
         transduction = robot.loadcell.reading or DEFAULT_TRANSDUCTION
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
