@@ -356,3 +356,22 @@ def test_a_broken_row_is_invalid_and_the_stream_goes_on(rig):
     columns, status = _estimate(cal, broken)
     assert status[1500] == 4 and np.isnan(columns["fx_N"][1500]) and np.isnan(columns["force_t_s"][1500])  # invalid
     assert (status[3000:] == OK).mean() > 0.95  # the rows after it have their estimates again
+
+
+def test_design_of_one_robot_prints_its_adc(tmp_path):
+    from sailforce.io.robotfile import template
+
+    path = tmp_path / "robot.toml"
+    path.write_text(template(replace(ROBOT, adc=PRESETS["hx711-80"])))
+    result = CliRunner(env={"COLUMNS": "200"}).invoke(cli, ["design", "-o", str(tmp_path / "d"), "--robot", str(path), "--grid", "5", "-q"])
+    assert result.exit_code == 0, result.output
+    assert "ADC hx711-80: latency 25 ms, -3 dB 18.2 Hz" in result.output and "leaves" in result.output
+
+
+def test_a_slower_hand_is_followed_better():
+    """The window's smear grows with how fast the hand changes its force: a pull rising over 0.3 s leaves less than 0.05 s."""
+    from sailforce.design.adc import reach_error
+
+    robot = replace(ROBOT, adc=PRESETS["hx711-80"])
+    fast, slow = reach_error(robot, hand_rise_s=0.05), reach_error(robot, hand_rise_s=0.3)
+    assert slow < 0.5 * fast

@@ -119,6 +119,13 @@ def design_command(output, robot_path, grid, theta1, theta2, delta, safety_facto
                        ("amplitude_need", "|gain − 1|"), ("condition", "cond(J)")):  # fmt: skip
         table.add_row(label, f"{summary[key]['worst']:.4g}", f"{summary[key]['median']:.4g}")
     console.print(table)
+    if not robot.adc.ideal:
+        from ..design.adc import adc_summary
+
+        adc = adc_summary(robot)
+        console.print(f"ADC {robot.adc.model}: latency {adc['adc_latency_ms']:.3g} ms, -3 dB {adc['adc_bandwidth_Hz']:.3g} Hz, "
+                      f"its noise at the hand {adc['adc_resolution_N']:.3g} N; a 0.3 m reach at 3 m/s² leaves "
+                      f"{adc['reach_error_N']:.3g} N RMS (noise-free, estimated at each conversion)", highlight=False)  # fmt: skip
     if axes:
         _print_sweep(console, result)
     console.print(f"report: {output / 'report.html'}")

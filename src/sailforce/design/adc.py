@@ -18,7 +18,7 @@ from ..calibration.file import Calibration
 from ..estimate.multirate import MultiRateEstimator
 from ..fit.dynamic import prior_term
 from ..motion.differentiate import derivatives
-from ..motion.multirate import record_multirate
+from ..motion.multirate import HAND_RISE_S, record_multirate
 from ..motion.reaching import MINJERK_PEAK_ACCELERATION, counts_per_newton
 from ..robot import Robot
 from ..sensing.maps import MatrixCompensator
@@ -47,14 +47,16 @@ def exact_calibration(robot: Robot) -> Calibration:
                        delta_range=delta_range, dynamics=prior_term(robot), dynamics_source="prior", adc=robot.adc)  # fmt: skip
 
 
-def reach_error(robot: Robot, peak_acceleration: float = DEFAULT_PEAK_ACCELERATION, seed: int = 0) -> float:
+def reach_error(robot: Robot, peak_acceleration: float = DEFAULT_PEAK_ACCELERATION, seed: int = 0,
+                hand_rise_s: float = HAND_RISE_S) -> float:
     """The RMS force error [N] at each estimate's instant over one reach of ``peak_acceleration`` [m/s^2] (module docstring)."""
     if robot.adc.ideal:
         return 0.0
     duration = np.sqrt(MINJERK_PEAK_ACCELERATION * REACH_M / peak_acceleration)
     speed = 1.875 * REACH_M / duration
     rec = record_multirate(robot, robot.adc, reach=REACH_M, reaches=2, peak_speed=speed, dwell=0.3,
-                           hand_stiffness=HAND_STIFFNESS, noise=NoiseModel(0.0, 0.0, False), offsets=(0.0, 0.0), seed=seed)  # fmt: skip
+                           hand_stiffness=HAND_STIFFNESS, hand_rise_s=hand_rise_s, noise=NoiseModel(0.0, 0.0, False),
+                           offsets=(0.0, 0.0), seed=seed)  # fmt: skip
     cal = exact_calibration(robot)
     term = prior_term(robot)
     qd, qdd = derivatives(rec.t, rec.theta, term.differentiator)
