@@ -363,7 +363,7 @@ def test_design_of_one_robot_prints_its_adc(tmp_path):
 
     path = tmp_path / "robot.toml"
     path.write_text(template(replace(ROBOT, adc=PRESETS["hx711-80"])))
-    result = CliRunner(env={"COLUMNS": "200"}).invoke(cli, ["design", "-o", str(tmp_path / "d"), "--robot", str(path), "--grid", "5", "-q"])
+    result = CliRunner(env={"COLUMNS": "200"}).invoke(cli, ["design", "-o", str(tmp_path / "d"), "--robot", str(path), "--grid", "5"])
     assert result.exit_code == 0, result.output
     assert "ADC hx711-80: latency 25 ms, -3 dB 18.2 Hz" in result.output and "leaves" in result.output
 
