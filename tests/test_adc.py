@@ -375,3 +375,21 @@ def test_a_slower_hand_is_followed_better():
     robot = replace(ROBOT, adc=PRESETS["hx711-80"])
     fast, slow = reach_error(robot, hand_rise_s=0.05), reach_error(robot, hand_rise_s=0.3)
     assert slow < 0.5 * fast
+
+
+def test_sail_estimate_on_stdin_writes_the_file_mode_s_bytes(rig, tmp_path):
+    """The multi-rate estimate from a pipe, as a live rig's lines come, is the file's, byte for byte."""
+    import subprocess
+    import sys
+
+    *_, cal, task = rig
+    cal.save(tmp_path / "cal.json")
+    short = replace(task, t=task.t[:3000], theta=task.theta[:3000], loads=task.loads[:3000], load_t=task.load_t[:3000])
+    _write(short, tmp_path / "task.csv")
+    sail = [sys.executable, "-m", "sailforce.cli", "estimate", "--calibration", str(tmp_path / "cal.json")]
+    done = subprocess.run([*sail, str(tmp_path / "task.csv"), "-o", str(tmp_path / "file.csv")], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    piped = subprocess.run([*sail, "-", "-o", "-"], input=(tmp_path / "task.csv").read_bytes(), capture_output=True)
+    assert piped.returncode == 0, piped.stderr
+    assert piped.stdout == (tmp_path / "file.csv").read_bytes()
+    assert b"force_t_s,status" in piped.stdout.splitlines()[0]
