@@ -219,22 +219,20 @@ class MultiRateEstimator:
         known[ok] = True
         return rows, dynamic, known
 
-    def _convert(self, i: int, times: np.ndarray, raw: np.ndarray) -> int:
-        """Add a cell's conversions to its history; the index of the first new one in it."""
+    def _convert(self, i: int, times: np.ndarray, raw: np.ndarray) -> None:
+        """Add a cell's conversions to its history."""
         cell = self.cells[i]
         periods = self._periods(cell, times)
         late = times - self.cal.adc_delay_s  # the window as the free-motion calibration found it
         rows, dynamic, known = self._windows(i, late, periods)
         centroid = late - 0.5 * self.adc.sinc_order * periods
         u = raw - self.cal.offsets[i] - dynamic
-        start = cell.centroid.size
         cell.centroid = np.concatenate([cell.centroid, centroid])
         cell.u = np.concatenate([cell.u, u])
         cell.row = np.concatenate([cell.row, rows])
         cell.dynamic = np.concatenate([cell.dynamic, dynamic])
         cell.raw = np.concatenate([cell.raw, raw])
         cell.known = np.concatenate([cell.known, known])
-        return start
 
     def _forget(self) -> None:
         for cell in self.cells:
@@ -328,10 +326,9 @@ class MultiRateEstimator:
         latest = []
         for i in (0, 1):
             mine = cells_ == i
-            start = self._convert(i, ready[rows_[mine], i], loads[rows_[mine], i])
+            self._convert(i, ready[rows_[mine], i], loads[rows_[mine], i])
             before = self.cells[i].centroid.size - mine.sum() - 1  # the newest before this chunk (-1: none)
             latest.append(before + np.cumsum(mine))
-            del start
         estimates = self._estimates((latest[0], latest[1]))
         # each row carries the estimate of its last event, or the one before the chunk
         table = np.vstack([np.array([self.current], dtype=float), estimates])
