@@ -133,7 +133,9 @@ enum sail_check {
     SAIL_CHECK_SECTIONS,   /* a low-pass with n_sections outside 1..SAIL_MAX_SECTIONS */
     SAIL_CHECK_DYNAMICS,   /* a dynamic term with half outside 1..SAIL_MAX_HALF_WINDOW, order outside
                               0..SAIL_MAX_RATE_ORDER, or dt not positive */
-    SAIL_CHECK_TOO_FEW     /* sail_tare_finish: fewer than two finite readings seen */
+    SAIL_CHECK_TOO_FEW,    /* sail_tare_finish: fewer than two finite readings seen */
+    SAIL_CHECK_ADC         /* sail_multirate_init: a period, tick or delay not finite and positive, a sinc order
+                              outside 1..SAIL_MAX_SINC_ORDER, or a window longer than SAIL_MAX_TICKS ticks */
 };
 
 /* SAIL_CHECK_OK, or the first problem found (enum sail_check).  sail_estimate reads the
@@ -236,32 +238,41 @@ enum sail_status sail_estimate_moving(const sail_calibration *cal, const sail_dy
                                       sail_real omega1, sail_real omega2, sail_real alpha1, sail_real alpha2,
                                       sail_force *out, sail_real inertial[2]);
 
-/* The causal rate filter and delay line: each reading comes out `half` samples after it went
- * in, when its centred window is complete (the same numbers as sailforce's offline
- * estimate, which centres the window on each sample).  Sampling must be uniform at dyn->dt.
- * The filter keeps exact integer moments of the window in the binomial basis,
+/* The causal Savitzky-Golay rate filter over a window of 2 half + 1 samples (docs/dynamics.md).  Angles enter in
+ * whole counts and the filter keeps exact integer moments of the window in the binomial basis,
  *   U_k = sum_u C(u, k) x_u   (u = 0..2 half, oldest first),
- * which slide by one sample in O(order) whatever the window's length (docs/dynamics.md).
- * Every counter is bounded: the state runs for ever. */
+ * which slide by one sample in O(order) whatever the window's length.  A rate is read on the window's discrete
+ * orthogonal (Gram) polynomials t_d: the projections P_d = sum_u t_d(u) x_u = sum_k gram[d][k] U_k are exact
+ * integers whatever the angle's level, and omega = sum_d gamma_rate[d] P_d in sail_real loses nothing to
+ * cancellation (a float build is within about 1e-6 of the exact rates).  Every counter is bounded: the state runs
+ * for ever. */
+typedef struct {
+    int32_t width;                                        /* 2 half + 1 */
+    int32_t order;                                        /* the kernels' polynomial order */
+    int32_t slot;                                         /* the ring slot the next sample goes to */
+    int32_t run;                                          /* linked samples since the last break, up to width */
+    sail_real gamma_rate[SAIL_MAX_RATE_ORDER];            /* the rate kernel on t_1..t_order [rad/s per count] */
+    sail_real gamma_accel[SAIL_MAX_RATE_ORDER];           /* the acceleration kernel [rad/s^2 per count] */
+    uint64_t entry[SAIL_MAX_RATE_ORDER + 1];              /* C(2 half + 1, k) */
+    int32_t gram[SAIL_MAX_RATE_ORDER][SAIL_MAX_RATE_ORDER + 1];   /* t_{d+1}(u) = sum_k gram[d][k] C(u, k) */
+    uint64_t moment[2][SAIL_MAX_RATE_ORDER + 1];          /* U_k of each angle, exact (modulo 2^64) */
+    int32_t counts[2 * SAIL_MAX_HALF_WINDOW + 1][2];      /* the window's angles in counts, a ring */
+} sail_rate_filter;
+
+/* The rate filter and a delay line: each reading comes out `half` samples after it went in, when its centred
+ * window is complete (the same numbers as sailforce's offline estimate, which centres the window on each sample).
+ * Sampling must be uniform at dyn->dt. */
 typedef struct {
     const sail_dynamics *dyn;
-    int32_t width;                                  /* 2 half + 1 */
-    int32_t slot;                                   /* the ring slot the next reading goes to */
-    int32_t pending;                                /* readings held, not yet returned */
-    int32_t run;                                        /* readings since the last break (gap, invalid sample),
-                                                       counted up to width */
-    double t_last;                                  /* time of the last valid reading [s] */
-    double gap;                                     /* SAIL_GAP_FACTOR dt [s] */
-    double rate[SAIL_MAX_RATE_ORDER + 1];           /* the kernels in the binomial basis, in rad per count */
-    double accel[SAIL_MAX_RATE_ORDER + 1];
-    uint64_t moment[2][SAIL_MAX_RATE_ORDER + 1];  /* U_k of each angle, exact (modulo 2^64, so
-                                                       never overflowing) */
-    uint64_t entry[SAIL_MAX_RATE_ORDER + 1];      /* C(2 half + 1, k) */
-    long counts[2 * SAIL_MAX_HALF_WINDOW + 1][2];   /* the window's angles in counts, a ring */
-    sail_reading held[2 * SAIL_MAX_HALF_WINDOW + 1];  /* the window's readings, a ring */
+    sail_rate_filter rates;
+    int32_t pending;                                      /* readings held, not yet returned */
+    double t_last;                                        /* time of the last valid reading [s] */
+    sail_real gap;                                        /* SAIL_GAP_FACTOR dt [s] */
+    sail_reading held[2 * SAIL_MAX_HALF_WINDOW + 1];      /* the window's readings, a ring (the filter's slots) */
 } sail_motion_state;
 
-/* Returns SAIL_CHECK_OK, or SAIL_CHECK_NULL / SAIL_CHECK_DYNAMICS (the state is then unusable). */
+/* Returns SAIL_CHECK_OK, or SAIL_CHECK_NULL / SAIL_CHECK_DYNAMICS (the state is then unusable; also for kernels
+ * that do not sum to zero, which are not derivatives). */
 enum sail_check sail_motion_init(sail_motion_state *state, const sail_dynamics *dyn);
 /* Push the reading taken at time t [s].  Returns 0 for the first `half` pushes; after that, 1,
  * with *out (and inertial, may be NULL) the estimate of the reading pushed `half` calls
@@ -274,6 +285,111 @@ int sail_motion_step(sail_motion_state *state, const sail_calibration *cal, doub
  * while there is one, then 0. */
 int sail_motion_flush(sail_motion_state *state, const sail_calibration *cal, sail_force *out,
                       sail_real inertial[2], sail_reading *held);
+
+/* ---- real ADCs: each cell's conversions now and then, through its filter (cf. sailforce.estimate.multirate) ---- */
+
+/* A delta-sigma bridge ADC (an HX711 at 80 SPS, say) converts on its own clock, and its sinc^N decimator makes each
+ * conversion the average of the input over the last N periods, weighted by the cardinal B-spline of order N
+ * (docs/reference/adc.md).  The estimator takes the encoders at every control tick and each cell's conversion when
+ * one is ready; at each conversion it averages the sensing map and the dynamic term over the filter's window, and
+ * solves for the force at the older of the two cells' latest window centroids, force_t:
+ *   u_i = r_i - offset_i - sum_j w_j d_i(t_j) = (sum_j w_j M_i(q_j)) F(c_i),   c_i = tau_i - delay - N T_i / 2,
+ * the other cell's u and averaged row interpolated to force_t (docs/reference/multirate.md).  Each chip's period T_i
+ * is measured from its conversions (the mean of its last SAIL_PERIOD_MEMORY intervals). */
+
+/* The longest filter: sinc^8. */
+#define SAIL_MAX_SINC_ORDER 8
+/* Control ticks the estimator remembers: at 1 kHz, 256 hold an HX711 at 80 SPS (a 50 ms window) with room to spare;
+ * a slower ADC or a faster tick needs more (compile the library and its users with -DSAIL_MAX_TICKS=...). */
+#ifndef SAIL_MAX_TICKS
+#define SAIL_MAX_TICKS 256
+#endif
+/* Conversion intervals a chip's period is measured over: sailforce.estimate.multirate.PERIOD_MEMORY. */
+#define SAIL_PERIOD_MEMORY 16
+/* An interval beyond this many nominal periods is a missed conversion: MISSED_CONVERSION. */
+#define SAIL_MISSED_CONVERSION 1.5
+/* A tick step beyond this many control periods inside a window is a gap: GAP_STEPS. */
+#define SAIL_GAP_STEPS 2.5
+/* Conversions each cell keeps for the interpolation to force_t: HISTORY. */
+#define SAIL_HISTORY 8
+
+/* The ADC, generated by `sail export-c --sample-rate-hz` for a calibration with one (its [adc] table). */
+typedef struct sail_adc {
+    double period;        /* the nominal conversion period T [s] */
+    int32_t sinc_order;   /* N: each conversion averages the last N T */
+    double delay;         /* the filter's delay beyond the model, identified by the free-motion fit [s] */
+    double tick;          /* the control period: the encoders' ticks [s] */
+} sail_adc;
+
+/* One control tick in: the encoders, and each cell's conversion if one became ready since the last tick. */
+typedef struct {
+    double t;                  /* the tick [s] */
+    sail_real theta1, theta2;  /* [rad] */
+    sail_real load[2];         /* each cell's new conversion [raw]; NaN: none this tick */
+    double ready[2];           /* its data-ready time [s] when the firmware stamps it; NaN: the tick's own */
+} sail_tick;
+
+/* One control tick out: the latest estimate, and the instant it refers to. */
+typedef struct {
+    sail_real fx, fy;          /* N; NaN when the status is SAIL_SINGULAR, SAIL_INVALID or SAIL_MOTION_UNKNOWN */
+    int32_t status;            /* enum sail_status */
+    sail_real inertial[2];     /* the dynamic part subtracted from each cell at force_t [raw]; 0 without a dynamic term */
+    double force_t;            /* the instant the force refers to [s]: t - force_t is its age; NaN before the first */
+} sail_timed_force;
+
+/* A processed tick, as the estimator keeps it (times relative to the state's epoch). */
+typedef struct {
+    sail_real t;               /* [s] after epoch; an invalid tick repeats the last valid time */
+    sail_real theta[2];        /* [rad] */
+    sail_real m[4];            /* the sensing map M at this tick, row-major */
+    sail_real d[2];            /* the dynamic term's reading at this tick [raw] (0 without a dynamic term) */
+    uint8_t flags;             /* SAIL_TICK_* (sail_multirate.c) */
+} sail_adc_tick;
+
+/* One cell's recent conversions. */
+typedef struct {
+    sail_real centroid[SAIL_HISTORY];  /* the window's centroid [s after epoch] */
+    sail_real u[SAIL_HISTORY];         /* reading - offset - averaged dynamic term */
+    sail_real row[SAIL_HISTORY][2];    /* the averaged row of M */
+    sail_real dynamic[SAIL_HISTORY];   /* the averaged dynamic term */
+    sail_real raw[SAIL_HISTORY];       /* the reading */
+    uint8_t known[SAIL_HISTORY];       /* the window's ticks were all known */
+    int32_t count, newest;             /* conversions held (up to SAIL_HISTORY), the newest's slot */
+    sail_real interval[SAIL_PERIOD_MEMORY];  /* the last conversion intervals [s], a ring */
+    int32_t intervals, next_interval;
+    double last_ready;                 /* the last conversion's data-ready time [s] (NaN: none yet) */
+} sail_adc_cell;
+
+typedef struct {
+    const sail_adc *adc;
+    const sail_dynamics *dyn;          /* NULL: no dynamic term (and no delay) */
+    const sail_calibration *cal;
+    sail_rate_filter rates;
+    int32_t pending;                   /* ticks held for the rate window */
+    double t_last;                     /* the last valid tick [s] */
+    sail_real gap;                     /* SAIL_GAP_FACTOR dt: the rate filter's break */
+    sail_tick held[2 * SAIL_MAX_HALF_WINDOW + 1];
+    double epoch;                      /* stored times are relative to it [s]; NaN until the first valid tick */
+    sail_real spline[SAIL_MAX_SINC_ORDER][SAIL_MAX_SINC_ORDER];  /* B_N on [s, s + 1): powers of x - s, highest first */
+    sail_real tick_gap;                /* SAIL_GAP_STEPS ticks [s] */
+    int32_t ticks, newest;             /* ticks held (up to SAIL_MAX_TICKS), the newest's slot */
+    sail_adc_tick tick[SAIL_MAX_TICKS];
+    sail_adc_cell cell[2];
+    sail_timed_force current;          /* the latest estimate (force_t relative to epoch) */
+    double current_epoch;
+} sail_multirate_state;
+
+/* Returns SAIL_CHECK_OK, or SAIL_CHECK_NULL, SAIL_CHECK_DYNAMICS (as sail_motion_init; dyn may be NULL: no dynamic
+ * term), SAIL_CHECK_ADC (the state is then unusable).  With dyn, adc->tick must be dyn->dt. */
+enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_calibration *cal, const sail_dynamics *dyn,
+                                    const sail_adc *adc);
+/* Push one control tick.  With a dynamic term the rates need half a window of ticks after each one, so the tick
+ * that comes out is the one pushed dyn->half calls earlier: returns 0 until then, then 1 with *out its estimate and
+ * *held (may be NULL) the tick itself.  Without one, every call returns 1 for the tick just pushed.  A tick whose
+ * time or angles are not numbers is SAIL_INVALID on its own row (the estimate it would carry lives on). */
+int sail_multirate_step(sail_multirate_state *state, const sail_tick *in, sail_timed_force *out, sail_tick *held);
+/* At the end of a recording: the oldest tick still held, its motion unknown.  Returns 1 while there is one, then 0. */
+int sail_multirate_flush(sail_multirate_state *state, sail_timed_force *out, sail_tick *held);
 
 #ifdef __cplusplus
 }

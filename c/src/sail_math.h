@@ -3,6 +3,7 @@
 #define SAIL_MATH_H
 
 #include <math.h>
+#include <string.h>
 
 #include "sail.h"
 
@@ -79,6 +80,14 @@ static inline void sail_sincos(float x, float *s, float *c)
     }
 }
 #endif
+
+/* isfinite for a double, from its exponent bits: no software double arithmetic on a single-precision FPU. */
+static inline int sail_finite_time(double t)
+{
+    uint64_t bits;
+    memcpy(&bits, &t, sizeof bits);
+    return ((bits >> 52) & 0x7ff) != 0x7ff;
+}
 
 static inline int sail_finite4(const sail_reading *r)
 {

@@ -1,0 +1,115 @@
+/*
+ * Internal: the causal Savitzky-Golay rate filter of sail_motion_step and sail_multirate_step
+ * (docs/dynamics.md, "The rate filter in libsail").  The window's angles, in whole counts, are held as exact
+ * moments in the binomial basis (a slide costs O(order) whatever the window's length); a rate is read out on the
+ * window's discrete orthogonal (Gram) polynomials, whose projections are exact integers that stay small, so that
+ * float arithmetic loses nothing to cancellation.
+ */
+#ifndef SAIL_RATES_H
+#define SAIL_RATES_H
+
+#include "sail.h"
+#include "sail_math.h"
+
+/* 2^24 / (2 pi): counts per radian (SAIL_COUNTS_PER_TURN). */
+#define SAIL_COUNTS_PER_RAD (SAIL_COUNTS_PER_TURN / 6.283185307179586)
+/* An angle beyond this many counts (128 turns) cannot be a count: the reading is invalid. */
+#define SAIL_COUNTS_LIMIT SAIL_R(2147483520.0)
+
+/* An angle in whole counts, the nearest; 0 (and *ok cleared) beyond +-SAIL_COUNTS_LIMIT or when not finite. */
+static SAIL_ALWAYS_INLINE int32_t sail_to_counts(sail_real theta, int *ok)
+{
+    const sail_real x = theta * (sail_real)SAIL_COUNTS_PER_RAD;
+    if (!(x > -SAIL_COUNTS_LIMIT && x < SAIL_COUNTS_LIMIT)) {
+        *ok = 0;
+        return 0;
+    }
+    return (int32_t)(x + (x < 0 ? SAIL_R(-0.5) : SAIL_R(0.5)));  /* the conversion truncates: nearest, halves away */
+}
+
+/* Slide one angle's window by one sample: x_old (u = 0) leaves, the others move to u - 1, and x_new enters at
+ * u = 2 half.  By Pascal's rule C(u - 1, k) = C(u, k) - C(u - 1, k - 1):
+ *   U_0' = U_0 - x_old + x_new,   U_k' = U_k - U_{k-1}' + C(2 half + 1, k) x_new   (k >= 1),
+ * in unsigned (modulo 2^64) arithmetic: exact, since every U_k fits in 64 bits. */
+static SAIL_ALWAYS_INLINE void sail_slide(uint64_t u[SAIL_MAX_RATE_ORDER + 1], const uint64_t entry[],
+                                          int32_t x_old, int32_t x_new)
+{
+    const uint64_t n = (uint64_t)(int64_t)x_new;
+    u[0] = u[0] - (uint64_t)(int64_t)x_old + n;
+    u[1] = u[1] - u[0] + entry[1] * n;
+    u[2] = u[2] - u[1] + entry[2] * n;
+    u[3] = u[3] - u[2] + entry[3] * n;
+    u[4] = u[4] - u[3] + entry[4] * n;
+}
+
+/* A 64-bit two's-complement integer as a sail_real.  In float, from its two halves (the high half is exact below
+ * 2^56, so the result is within 1.5 ulp) instead of libgcc's software conversion. */
+static SAIL_ALWAYS_INLINE sail_real sail_int64_real(uint64_t v)
+{
+#ifdef SAIL_DOUBLE
+    return v >> 63 ? -(double)(~v) - 1.0 : (double)v;
+#else
+    const uint32_t hi = (uint32_t)(v >> 32), lo = (uint32_t)v;
+    const float high = hi >> 31 ? -(float)(~hi) - 1.0f : (float)hi;
+    return high * 4294967296.0f + (float)lo;
+#endif
+}
+
+/* P_d = sum_k gram[d][k] U_k, modulo 2^64 (each coefficient fits in 32 bits). */
+#define SAIL_GRAM_TERM(f, u, d, k) ((uint64_t)(int64_t)(f)->gram[d][k] * (u)[k])
+
+/* One angle's rate and acceleration: the projections P_d (exact integers) weighted by the kernels' Gram
+ * coefficients, unrolled to SAIL_MAX_RATE_ORDER (a lower order's coefficients are zero). */
+static SAIL_ALWAYS_INLINE void sail_rates_of(const sail_rate_filter *f, const uint64_t u[SAIL_MAX_RATE_ORDER + 1],
+                                             sail_real *omega, sail_real *alpha)
+{
+    const sail_real p1 = sail_int64_real(SAIL_GRAM_TERM(f, u, 0, 0) + SAIL_GRAM_TERM(f, u, 0, 1));
+    const sail_real p2 = sail_int64_real(SAIL_GRAM_TERM(f, u, 1, 0) + SAIL_GRAM_TERM(f, u, 1, 1)
+                                         + SAIL_GRAM_TERM(f, u, 1, 2));
+    const sail_real p3 = sail_int64_real(SAIL_GRAM_TERM(f, u, 2, 0) + SAIL_GRAM_TERM(f, u, 2, 1)
+                                         + SAIL_GRAM_TERM(f, u, 2, 2) + SAIL_GRAM_TERM(f, u, 2, 3));
+    const sail_real p4 = sail_int64_real(SAIL_GRAM_TERM(f, u, 3, 0) + SAIL_GRAM_TERM(f, u, 3, 1)
+                                         + SAIL_GRAM_TERM(f, u, 3, 2) + SAIL_GRAM_TERM(f, u, 3, 3)
+                                         + SAIL_GRAM_TERM(f, u, 3, 4));
+    const sail_real *w = f->gamma_rate, *a = f->gamma_accel;
+    *omega = w[0] * p1 + w[1] * p2 + w[2] * p3 + w[3] * p4;
+    *alpha = a[0] * p1 + a[1] * p2 + a[2] * p3 + a[3] * p4;
+}
+
+/* Push one sample's counts into the window (the slot the oldest leaves from). */
+static SAIL_ALWAYS_INLINE void sail_rates_push(sail_rate_filter *f, int32_t x1, int32_t x2)
+{
+    const int32_t slot = f->slot;
+    sail_slide(f->moment[0], f->entry, f->counts[slot][0], x1);
+    sail_slide(f->moment[1], f->entry, f->counts[slot][1], x2);
+    f->counts[slot][0] = x1;
+    f->counts[slot][1] = x2;
+    f->slot = slot + 1 == f->width ? 0 : slot + 1;
+}
+
+/* The centre sample's rates (omega1, alpha1, omega2, alpha2): valid once a whole linked window is in. */
+static SAIL_ALWAYS_INLINE void sail_rates_read(const sail_rate_filter *f, sail_real out[4])
+{
+    sail_rates_of(f, f->moment[0], &out[0], &out[1]);
+    sail_rates_of(f, f->moment[1], &out[2], &out[3]);
+}
+
+/* Track how many linked samples the window holds: `valid` (the sample's time and angles are numbers) and `linked`
+ * (its step from the last valid sample is positive and within the gap); returns whether the window is whole. */
+static SAIL_ALWAYS_INLINE int sail_rates_link(sail_rate_filter *f, int valid, int linked)
+{
+    if (!valid)
+        f->run = 0;  /* an invalid sample cuts the window on both sides */
+    else if (f->run > 0 && linked)
+        f->run += f->run < f->width;
+    else
+        f->run = 1;  /* a gap, a step back in time, or the first sample after a cut */
+    return f->run == f->width;
+}
+
+/* Set up the filter for dyn's kernels (checked by the caller). */
+void sail_rates_init(sail_rate_filter *f, const sail_dynamics *dyn);
+/* Whether dyn's kernels are derivatives (they sum to zero over the window): SAIL_CHECK_OK or SAIL_CHECK_DYNAMICS. */
+enum sail_check sail_rates_check(const sail_dynamics *dyn);
+
+#endif /* SAIL_RATES_H */
