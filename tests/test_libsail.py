@@ -47,6 +47,14 @@ def test_header_constants_match_python():
     assert names == list(STATUS_NAMES)
     assert int(_define("SAIL_MAX_HALF_WINDOW")) == MAX_HALF_WINDOW
     assert float(_define("SAIL_GAP_FACTOR")) == GAP_FACTOR
+    from sailforce.estimate import multirate
+    from sailforce.export_c import MAX_SINC_ORDER
+
+    assert int(_define("SAIL_MAX_SINC_ORDER")) == MAX_SINC_ORDER == 8  # the ADC model's largest sinc_order
+    assert int(_define("SAIL_PERIOD_MEMORY")) == multirate.PERIOD_MEMORY
+    assert float(_define("SAIL_MISSED_CONVERSION")) == multirate.MISSED_CONVERSION
+    assert float(_define("SAIL_GAP_STEPS")) == multirate.GAP_STEPS
+    assert int(_define("SAIL_HISTORY")) == multirate.HISTORY
 
 
 def test_default_header_is_current(tmp_path):

@@ -134,8 +134,9 @@ enum sail_check {
     SAIL_CHECK_DYNAMICS,   /* a dynamic term with half outside 1..SAIL_MAX_HALF_WINDOW, order outside
                               0..SAIL_MAX_RATE_ORDER, or dt not positive */
     SAIL_CHECK_TOO_FEW,    /* sail_tare_finish: fewer than two finite readings seen */
-    SAIL_CHECK_ADC         /* sail_multirate_init: a period, tick or delay not finite and positive, a sinc order
-                              outside 1..SAIL_MAX_SINC_ORDER, or a window longer than SAIL_MAX_TICKS ticks */
+    SAIL_CHECK_ADC         /* sail_multirate_init: a period or tick not positive and finite, a delay not within a
+                              period, a sinc order outside 1..SAIL_MAX_SINC_ORDER, a window longer than
+                              SAIL_MAX_TICKS ticks, or a tick that is not the dynamic term's dt */
 };
 
 /* SAIL_CHECK_OK, or the first problem found (enum sail_check).  sail_estimate reads the
@@ -317,7 +318,7 @@ int sail_motion_flush(sail_motion_state *state, const sail_calibration *cal, sai
 typedef struct sail_adc {
     double period;        /* the nominal conversion period T [s] */
     int32_t sinc_order;   /* N: each conversion averages the last N T */
-    double delay;         /* the filter's delay beyond the model, identified by the free-motion fit [s] */
+    double delay;         /* the filter's delay beyond the model, identified by the free-motion fit [s]; within a period */
     double tick;          /* the control period: the encoders' ticks [s] */
 } sail_adc;
 
@@ -333,7 +334,8 @@ typedef struct {
 typedef struct {
     sail_real fx, fy;          /* N; NaN when the status is SAIL_SINGULAR, SAIL_INVALID or SAIL_MOTION_UNKNOWN */
     int32_t status;            /* enum sail_status */
-    sail_real inertial[2];     /* the dynamic part subtracted from each cell at force_t [raw]; 0 without a dynamic term */
+    sail_real inertial[2];     /* the dynamic part subtracted from each cell at force_t [raw]: NaN where unknown, 0
+                                  without a dynamic term */
     double force_t;            /* the instant the force refers to [s]: t - force_t is its age; NaN before the first */
 } sail_timed_force;
 

@@ -17,8 +17,11 @@ enum {
     SAIL_TICK_GAP = 4     /* the step from the tick before is beyond SAIL_GAP_STEPS ticks */
 };
 
-/* Stored times are within a few seconds of the epoch: a float keeps them to about 0.2 us. */
-#define SAIL_EPOCH_SPAN SAIL_R(2.0)
+/* Stored times stay within a quarter of a second of the epoch, which moves on by an eighth (exactly, in binary):
+ * a float keeps them to 15 ns, 1e-6 of an HX711's period.  A move shifts every time held, about two operations a
+ * tick on average. */
+#define SAIL_EPOCH_SPAN SAIL_R(0.25)
+#define SAIL_EPOCH_STEP SAIL_R(0.125)
 /* A conversion's window edges take ticks this close as inside (sailforce's 1e-12 s). */
 #define SAIL_WINDOW_SLACK 1e-12
 
@@ -67,8 +70,8 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     double window;
     if (state == NULL || cal == NULL || adc == NULL)
         return SAIL_CHECK_NULL;
-    if (!(adc->period > 0 && adc->period < 1e3 && adc->tick > 0 && adc->tick < 1e3 && adc->delay >= 0
-          && adc->delay < 1e3) || adc->sinc_order < 1 || adc->sinc_order > SAIL_MAX_SINC_ORDER)
+    if (!(adc->period > 0 && adc->period < 1e3 && adc->tick > 0 && adc->tick < 1e3 && fabs(adc->delay) < adc->period)
+        || adc->sinc_order < 1 || adc->sinc_order > SAIL_MAX_SINC_ORDER)
         return SAIL_CHECK_ADC;
     if (dyn != NULL) {
         if (dyn->half < 1 || dyn->half > SAIL_MAX_HALF_WINDOW || dyn->order < 0 || dyn->order > SAIL_MAX_RATE_ORDER
@@ -80,7 +83,7 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     }
     /* what a conversion looks back over: its window at a period up to a missed conversion's, its delay, and the
      * other cell's centroid up to two periods older */
-    window = (SAIL_MISSED_CONVERSION * adc->sinc_order + 2.0) * adc->period + adc->delay;
+    window = (SAIL_MISSED_CONVERSION * adc->sinc_order + 2.0) * adc->period + fabs(adc->delay);
     if (window / adc->tick + 4 > SAIL_MAX_TICKS)
         return SAIL_CHECK_ADC;
     state->adc = adc;
@@ -104,7 +107,7 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     }
     state->current.fx = state->current.fy = SAIL_NAN;
     state->current.status = SAIL_MOTION_UNKNOWN;
-    state->current.inertial[0] = state->current.inertial[1] = SAIL_NAN;
+    state->current.inertial[0] = state->current.inertial[1] = dyn != NULL ? SAIL_NAN : 0;
     state->current.force_t = NAN;
     state->current_epoch = 0;
     return SAIL_CHECK_OK;
@@ -151,7 +154,7 @@ static SAIL_ALWAYS_INLINE int tick_parts(const sail_calibration *cal, const sail
     return out->d[0] - out->d[0] == 0 && out->d[1] - out->d[1] == 0;
 }
 
-/* Move the epoch on by whole seconds: every stored time shifts by the same exact amount. */
+/* Move the epoch on: every stored time shifts by the same amount, exactly (a power of two, on times below it). */
 static void rebase(sail_multirate_state *state, sail_real shift)
 {
     int i, j;
@@ -324,7 +327,7 @@ static void estimate(sail_multirate_state *state)
     int known, status = SAIL_OK, saturated = 0, k, finite = 1;
     if (state->cell[0].count == 0 || state->cell[1].count == 0) {
         out->fx = out->fy = SAIL_NAN;
-        out->inertial[0] = out->inertial[1] = SAIL_NAN;
+        out->inertial[0] = out->inertial[1] = state->dyn != NULL ? SAIL_NAN : 0;
         out->status = SAIL_MOTION_UNKNOWN;
         out->force_t = NAN;
         return;
@@ -366,8 +369,8 @@ static void estimate(sail_multirate_state *state)
     out->fx = fx;
     out->fy = fy;
     out->status = status;
-    out->inertial[0] = v1.dynamic;
-    out->inertial[1] = v2.dynamic;
+    out->inertial[0] = state->dyn != NULL ? v1.dynamic : 0;
+    out->inertial[1] = state->dyn != NULL ? v2.dynamic : 0;
     out->force_t = (double)instant;
     state->current_epoch = state->epoch;
 }
@@ -385,9 +388,9 @@ static void process(sail_multirate_state *state, const sail_tick *tick, int know
         if (!(state->epoch == state->epoch))
             state->epoch = tick->t;
         t = (sail_real)(tick->t - state->epoch);
-        if (t >= SAIL_EPOCH_SPAN) {
-            rebase(state, SAIL_R(1.0));
-            t -= SAIL_R(1.0);
+        while (t >= SAIL_EPOCH_SPAN) {
+            rebase(state, SAIL_EPOCH_STEP);
+            t -= SAIL_EPOCH_STEP;
         }
     }
     state->newest = state->newest + 1 == SAIL_MAX_TICKS ? 0 : state->newest + 1;

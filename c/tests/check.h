@@ -10,8 +10,10 @@
 /* Agreement with the Python toolkit: 1e-5 relative in float, 1e-12 in double. */
 #ifdef SAIL_DOUBLE
 #define SAIL_TEST_RTOL 1e-12
+#define SAIL_TEST_TIME_TOL 1e-12
 #else
 #define SAIL_TEST_RTOL 1e-5
+#define SAIL_TEST_TIME_TOL 1e-7  /* [s]: float times within 0.25 s of an epoch carry 1.5e-8 s, a few roundings of it */
 #endif
 
 static int check_failures = 0;

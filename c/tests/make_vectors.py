@@ -20,6 +20,16 @@ and writes ``motion.csv``: a task session with a gap, a step back in time,
 an invalid angle, an invalid load and saturated readings, and what
 :func:`sailforce.estimate.dynamic.estimate_moving` returns for each row.
 
+For real ADCs it records a simulated rig with HX711s at 80 SPS (holds, free
+motion, a task; :mod:`sailforce.motion.multirate`), calibrates it
+(``sailforce.calibrate(..., adc=...)``), exports ``cal_multirate.h``
+(``sail_cal_multirate``, ``_dynamics`` and ``_adc``) and writes
+``multirate.csv``: the task's ticks with a gap, an invalid angle on a tick
+with a conversion, a saturated conversion and the conversions' data-ready
+times, and what :class:`sailforce.estimate.multirate.MultiRateEstimator`
+returns for each row (rates from the same Savitzky-Golay tracker as the
+stream).  ``multirate_static.csv`` is the same without the dynamic term.
+
 It also writes ``lowpass.csv``, a reading sequence with invalid rows and the
 loads :class:`sailforce.estimate.filters.LowPass` makes of it, for the filter exported
 with the matrix calibration (``sail_cal_matrix_lowpass``).
@@ -144,6 +154,54 @@ def _motion_vectors(outdir: Path) -> None:
                "inertial2"], np.column_stack([t, rows, fx, fy, status, inertial]))  # fmt: skip
 
 
+def _multirate_vectors(outdir: Path) -> None:
+    """A multi-rate rig's calibration with its ADC, and a task session's ticks with Python's estimates."""
+    from sailforce import Handle, Plane, calibrate
+    from sailforce.adc import PRESETS
+    from sailforce.estimate.multirate import MultiRateEstimator
+    from sailforce.export_c import calibration_header
+    from sailforce.motion.differentiate import derivatives
+    from sailforce.motion.multirate import record_holds, record_multirate
+    from sailforce.synthetic import NoiseModel, session_offsets
+
+    robot = Robot(handle=Handle(mass=1.0), plane=Plane(tilt_deg=3.0))
+    adc = PRESETS["hx711-80"]
+    offsets = session_offsets(robot, NoiseModel(), 1)
+    t1, t2, fx, fy, _, _ = calibration_session(robot, seed=2, offsets=offsets)
+    holds = record_holds(robot, adc, t1, t2, fx, fy, hold_s=0.5, offsets=offsets, seed=1)
+    free = record_multirate(robot, adc, reaches=16, offsets=offsets, seed=3)
+
+    def columns(r, names):
+        return {"t_s": r.t, "theta1_deg": np.degrees(r.theta[:, 0]), "theta2_deg": np.degrees(r.theta[:, 1]),
+                "load1": r.loads[:, 0], "load2": r.loads[:, 1], "load1_t_s": r.load_t[:, 0], "load2_t_s": r.load_t[:, 1],
+                names[0]: r.force[:, 0], names[1]: r.force[:, 1]}  # fmt: skip
+
+    cal = calibrate(columns(holds, ("fx_N", "fy_N")), robot=robot, model="matrix", adc=adc,
+                    free_motion=columns(free, ("true_fx_N", "true_fy_N")))  # fmt: skip
+    (outdir / "cal_multirate.h").write_text(calibration_header(cal, "sail_cal_multirate", sample_rate_hz=MOTION_RATE_HZ))
+    task = record_multirate(robot, adc, reaches=4, hand_stiffness=100.0, offsets=offsets, seed=7)
+    t, q, loads, ready = task.t.copy(), task.theta.copy(), task.loads.copy(), task.load_t.copy()
+    t[2000:] += 0.02  # a gap of 20 ticks
+    ready[2000:] += 0.02
+    first = int(np.flatnonzero(np.isfinite(loads[2600:, 0]))[0]) + 2600
+    q[first, 1] = np.nan  # an invalid angle on a tick with a conversion
+    later = int(np.flatnonzero(np.isfinite(loads[3000:, 1]))[0]) + 3000
+    loads[later, 1] = cal.offsets[1] + 1.3 * cal.capacity[1]  # a saturated conversion
+    ready[3500:3800, 0] = np.nan  # conversions stamped with their tick only
+    for name, dynamic in (("multirate", True), ("multirate_static", False)):
+        estimator = MultiRateEstimator(cal, dynamic=dynamic)
+        rate = accel = None
+        if dynamic:
+            rate, accel = derivatives(t, q, cal.dynamics.differentiator, dt=1.0 / MOTION_RATE_HZ)
+        out = estimator.rows(t, q, loads, ready, np.zeros(t.size, bool), rate, accel)
+        c = out.columns
+        broken = np.where(np.isfinite(t) & np.all(np.isfinite(q), axis=1), 0.0, np.nan)  # libsail: 0 without the term
+        inertial = (c["inertial1"], c["inertial2"]) if dynamic else (broken, broken)
+        _write_csv(outdir / f"{name}.csv", ["t", "theta1", "theta2", "load1", "load2", "ready1", "ready2", "fx", "fy",
+                   "status", "inertial1", "inertial2", "force_t"],
+                   np.column_stack([t, q, loads, ready, c["fx_N"], c["fy_N"], out.status, *inertial, c["force_t_s"]]))  # fmt: skip
+
+
 def main(outdir: Path) -> None:
     outdir.mkdir(parents=True, exist_ok=True)
     robot = Robot().with_joints("spring")  # moment-carrying joints: a delta-dependent map
@@ -169,6 +227,7 @@ def main(outdir: Path) -> None:
             _write_csv(outdir / "lowpass.csv", ["theta1", "theta2", "load1", "load2", "out1", "out2"],
                        _lowpass_vectors(cal, rng))  # fmt: skip
     _motion_vectors(outdir)
+    _multirate_vectors(outdir)
     print(f"wrote libsail test vectors to {outdir}")
 
 

@@ -3,6 +3,7 @@
  *   test_vectors matrix|seed VECTORS.csv   sail_estimate vs Calibration.estimate
  *   test_vectors lowpass LOWPASS.csv        sail_lowpass_process vs sailforce.estimate.LowPass
  *   test_vectors motion MOTION.csv          sail_motion_step/flush vs sailforce.estimate.estimate_moving
+ *   test_vectors multirate[_static] MR.csv  sail_multirate_step/flush vs sailforce.estimate.multirate
  * Statuses must be identical; forces agree norm-wise, |dF| <= SAIL_TEST_RTOL |F|.
  */
 #include <stdio.h>
@@ -11,12 +12,13 @@
 
 #include "cal_matrix.h"
 #include "cal_motion.h"
+#include "cal_multirate.h"
 #include "cal_seed.h"
 #include "check.h"
 #include "sail.h"
 
 #define MAX_ROWS 8192
-#define COLUMNS 10
+#define COLUMNS 13
 
 /* Rows of numbers below a header line; returns the row count, or -1. */
 static int read_rows(const char *path, double rows[][COLUMNS], int columns)
@@ -191,10 +193,90 @@ static int motion_vectors(const char *path)
     return 0;
 }
 
+/* Ticks in, one at a time, with each cell's conversions; each tick comes out `half` ticks later (at once without a
+ * dynamic term), then the flush.  force_t is compared in absolute time: it is the estimate's instant. */
+static int multirate_vectors(const char *path, const sail_dynamics *dyn)
+{
+    static sail_multirate_state state;
+    const int delay = dyn ? dyn->half : 0;
+    int i, k, n = read_rows(path, rows, 13), out = 0, counts[6] = {0, 0, 0, 0, 0, 0};
+    double scale = 0, inertial_scale = 0, worst = 0, worst_t = 0;
+    CHECK(n > 0, "no vectors in %s", path);
+    for (i = 0; i < n; i++) {
+        if (isfinite(rows[i][7]))
+            scale = fmax(scale, hypot(rows[i][7], rows[i][8]));
+        if (isfinite(rows[i][10]))
+            inertial_scale = fmax(inertial_scale, fmax(fabs(rows[i][10]), fabs(rows[i][11])));
+    }
+    CHECK(sail_multirate_init(&state, &sail_cal_multirate, dyn, &sail_cal_multirate_adc) == SAIL_CHECK_OK, "init");
+    for (i = 0; i <= n + delay; i++) {
+        sail_timed_force f;
+        sail_tick held;
+        int got;
+        if (i < n) {
+            sail_tick tick;
+            tick.t = rows[i][0];
+            tick.theta1 = (sail_real)rows[i][1];
+            tick.theta2 = (sail_real)rows[i][2];
+            tick.load[0] = (sail_real)rows[i][3];
+            tick.load[1] = (sail_real)rows[i][4];
+            tick.ready[0] = rows[i][5];
+            tick.ready[1] = rows[i][6];
+            got = sail_multirate_step(&state, &tick, &f, &held);
+            CHECK(got == (i >= delay), "row %d: step returned %d", i + 2, got);
+        } else {
+            got = sail_multirate_flush(&state, &f, &held);
+            CHECK(got == (out < n), "flush returned %d after %d rows", got, out);
+        }
+        if (!got)
+            continue;
+        {
+            const double *row = rows[out];
+            const int expected = (int)row[9];
+            CHECK(f.status == expected, "row %d: status %d, Python %d", out + 2, f.status, expected);
+            CHECK(held.t == row[0] || (isnan(held.t) && isnan(row[0])), "row %d: the held tick is not the row's", out + 2);
+            if (isnan(row[7])) {
+                CHECK(isnan(f.fx) && isnan(f.fy), "row %d: no estimate expected, got (%g, %g)", out + 2, (double)f.fx,
+                      (double)f.fy);
+            } else {
+                const double err = hypot((double)f.fx - row[7], (double)f.fy - row[8]);
+                CHECK(err <= SAIL_TEST_RTOL * scale, "row %d: F (%.17g, %.17g), Python (%.17g, %.17g)", out + 2,
+                      (double)f.fx, (double)f.fy, row[7], row[8]);
+                worst = fmax(worst, err / scale);
+            }
+            for (k = 0; k < 2; k++) {
+                if (isnan(row[10 + k]))
+                    CHECK(isnan(f.inertial[k]), "row %d: no inertial load %d expected, got %g", out + 2, k + 1,
+                          (double)f.inertial[k]);
+                else
+                    CHECK_CLOSE(f.inertial[k], row[10 + k], inertial_scale, SAIL_TEST_RTOL);
+            }
+            if (isnan(row[12])) {
+                CHECK(isnan(f.force_t), "row %d: no force_t expected, got %.17g", out + 2, f.force_t);
+            } else {
+                /* an instant: float keeps times relative to an epoch, within 0.25 s of it */
+                CHECK(fabs(f.force_t - row[12]) <= SAIL_TEST_TIME_TOL, "row %d: force_t %.17g, Python %.17g", out + 2,
+                      f.force_t, row[12]);
+                worst_t = fmax(worst_t, fabs(f.force_t - row[12]));
+            }
+            if (expected >= 0 && expected < 6)
+                counts[expected]++;
+            out++;
+        }
+    }
+    CHECK(out == n, "%d estimates for %d ticks", out, n);
+    CHECK(counts[SAIL_OK] > 0 && counts[SAIL_SATURATED] > 0 && counts[SAIL_INVALID] > 0 && counts[SAIL_MOTION_UNKNOWN] > 0,
+          "the vectors lack a status");
+    printf("%s: %d ticks (ok %d, saturated %d, invalid %d, motion-unknown %d), delay %d; worst |dF| / max|F| %.3g, "
+           "worst |d force_t| %.3g s\n", path, n, counts[SAIL_OK], counts[SAIL_SATURATED], counts[SAIL_INVALID],
+           counts[SAIL_MOTION_UNKNOWN], delay, worst, worst_t);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion FILE.csv\n");
+        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion|multirate|multirate_static FILE.csv\n");
         return 2;
     }
     if (!strcmp(argv[1], "matrix"))
@@ -205,6 +287,10 @@ int main(int argc, char **argv)
         lowpass_vectors(argv[2]);
     else if (!strcmp(argv[1], "motion"))
         motion_vectors(argv[2]);
+    else if (!strcmp(argv[1], "multirate"))
+        multirate_vectors(argv[2], &sail_cal_multirate_dynamics);
+    else if (!strcmp(argv[1], "multirate_static"))
+        multirate_vectors(argv[2], NULL);
     else {
         fprintf(stderr, "unknown vector set %s\n", argv[1]);
         return 2;

@@ -28,6 +28,8 @@ MAX_SECTIONS = 4
 MAX_HALF_WINDOW = 64
 #: ``SAIL_MAX_RATE_ORDER`` in sail.h: the rate filter's polynomial order.
 MAX_RATE_ORDER = 4
+#: ``SAIL_MAX_SINC_ORDER`` in sail.h: the longest ADC filter the multi-rate estimator takes.
+MAX_SINC_ORDER = 8
 
 _C_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
@@ -51,6 +53,9 @@ LIBSAIL_NAMES = frozenset("""
     sail_estimate_moving sail_force sail_lowpass sail_lowpass_init sail_lowpass_process sail_lowpass_state
     sail_model_kind sail_motion_flush sail_motion_init sail_motion_state sail_motion_step sail_reading
     sail_real sail_tare_finish sail_tare_init sail_tare_process sail_tare_state
+    SAIL_MAX_SINC_ORDER SAIL_MAX_TICKS SAIL_PERIOD_MEMORY SAIL_MISSED_CONVERSION SAIL_GAP_STEPS SAIL_HISTORY
+    SAIL_CHECK_ADC sail_adc sail_tick sail_timed_force sail_adc_tick sail_adc_cell sail_multirate_state
+    sail_multirate_init sail_multirate_step sail_multirate_flush sail_rate_filter sail_check sail_status
     NULL offsetof size_t ptrdiff_t wchar_t max_align_t
 """.split())
 
@@ -96,7 +101,7 @@ def _padded(rows: list, width: int) -> list:
 MAX_NAME_CHARS = 48
 
 
-def _check_name(name: str, lowpass: bool = False, dynamics: bool = False) -> None:
+def _check_name(name: str, lowpass: bool = False, dynamics: bool = False, adc: bool = False) -> None:
     if len(name) > MAX_NAME_CHARS:
         raise ExportError(f"--name is {len(name):,} characters long; C keeps {MAX_NAME_CHARS} at most with its suffixes "
                           "(C99: 63 significant characters); choose a shorter name")  # fmt: skip
@@ -107,6 +112,7 @@ def _check_name(name: str, lowpass: bool = False, dynamics: bool = False) -> Non
     if name.startswith("__") or (name[0] == "_" and name[1:2].isupper()):
         raise ExportError(f"--name {name!r} is reserved for the C implementation (it starts with __ or _ and a capital)")
     extra = ((f"{name}_lowpass", f"{name}_lowpass_df2T") if lowpass else ()) + ((f"{name}_dynamics",) if dynamics else ())
+    extra += (f"{name}_adc",) if adc else ()
     for declared in (name, *extra):
         if declared in LIBSAIL_NAMES:
             raise ExportError(f"--name {name!r} would declare {declared}, which libsail's sail.h already declares; "
@@ -199,6 +205,16 @@ def dynamics_fields(cal: Calibration, sample_rate_hz: float) -> list[tuple[str, 
             ("half", str(half)), ("order", str(order)), ("rate", _doubles(rate)), ("accel", _doubles(accel))]  # fmt: skip
 
 
+def adc_fields(cal: Calibration, sample_rate_hz: float) -> list[tuple[str, str]]:
+    """``(member, initializer)`` pairs of ``struct sail_adc``: the ADC's period and filter, the identified delay, the tick."""
+    adc = cal.adc
+    if not 1 <= adc.sinc_order <= MAX_SINC_ORDER:
+        raise ExportError(f"the ADC's filter is sinc^{adc.sinc_order}; libsail's multi-rate estimator takes sinc^1 to "
+                          f"sinc^{MAX_SINC_ORDER}")  # fmt: skip
+    return [("period", repr(adc.period_s)), ("sinc_order", str(adc.sinc_order)), ("delay", repr(float(cal.adc_delay_s))),
+            ("tick", repr(1.0 / sample_rate_hz))]  # fmt: skip
+
+
 def _doubles(values) -> str:
     """A C initializer of double literals (members that are double in every build)."""
     if not np.all(np.isfinite(values)):
@@ -219,7 +235,8 @@ def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str 
     ``name_dynamics`` (``struct sail_dynamics``) for sail_motion_init.
     """
     dynamics = cal.dynamics is not None and sample_rate_hz is not None
-    _check_name(name, lowpass is not None, dynamics)
+    multirate = cal.multirate and sample_rate_hz is not None
+    _check_name(name, lowpass is not None, dynamics, multirate)
     guard = f"SAIL_CALIBRATION_{name.upper()}_H"
     lo, hi = np.degrees(cal.delta_range)
     c = comment_text
@@ -246,4 +263,7 @@ def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str 
                  f"static const sail_real {name}_lowpass_df2T[5 * {stages}] = {_array(df2t_coefficients(lowpass))};\n")
     if dynamics:
         text += "\n" + _initializer("sail_dynamics", f"{name}_dynamics", dynamics_fields(cal, sample_rate_hz))
+    if multirate:
+        text += (f"\n/* The cells' ADC ({c(cal.adc.model)}) for sail_multirate_init, with encoder ticks at {sample_rate_hz:g} Hz. */\n"
+                 + _initializer("sail_adc", f"{name}_adc", adc_fields(cal, sample_rate_hz)))
     return text + f"\n#endif /* {guard} */\n"

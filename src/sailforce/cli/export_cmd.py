@@ -30,7 +30,9 @@ def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowp
     for sail_lowpass_init.  When the calibration has a dynamic term (sail
     calibrate --free-motion), --sample-rate-Hz (the encoders' and cells'
     sampling rate) also exports it as `sail_dynamics NAME_dynamics`, with
-    the rate filter for that rate, for sail_motion_init.
+    the rate filter for that rate, for sail_motion_init.  A calibration with
+    a real ADC (an [adc] table) also exports `sail_adc NAME_adc` with
+    --sample-rate-Hz (the encoders' tick rate), for sail_multirate_init.
     """
     check_output(output, {"the calibration file": calibration})
     cal = Calibration.load(calibration)
@@ -39,6 +41,9 @@ def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowp
     if cal.dynamics is not None and sample_rate_hz is None:
         console.print("note: the calibration's dynamic term is not exported; give --sample-rate-Hz (the sampling rate "
                       "of the encoders and cells) to export it", highlight=False)  # fmt: skip
+    if cal.multirate and sample_rate_hz is None:
+        console.print(f"note: the calibration's ADC ({cal.adc.model}) is not exported; give --sample-rate-Hz (the "
+                      "encoders' tick rate) to export it for sail_multirate_init", highlight=False)  # fmt: skip
     if sample_rate_hz is not None and not sample_rate_hz > 0:
         raise click.BadParameter(f"{sample_rate_hz:g} Hz is not a sample rate", param_hint="--sample-rate-Hz")
     text = calibration_header(cal, name, source=calibration.name, lowpass=lowpass, sample_rate_hz=sample_rate_hz)
@@ -49,4 +54,5 @@ def export_c_command(calibration, output, name, lowpass_hz, sample_rate_hz, lowp
         stream.write(text)
     extra = [f"`{name}_lowpass`"] * (lowpass is not None)
     extra += [f"`{name}_dynamics`"] * (cal.dynamics is not None and sample_rate_hz is not None)
+    extra += [f"`{name}_adc`"] * (cal.multirate and sample_rate_hz is not None)
     console.print(f"wrote {output}: {cal.kind} calibration `{name}`" + "".join(f" and {e}" for e in extra))

@@ -187,8 +187,10 @@ class MultiRateEstimator:
         if not times.size or t.size < 2:
             return rows, dynamic, known
         valid_t = np.where(np.isfinite(t), t, -np.inf)
-        first = np.searchsorted(valid_t, times - self.adc.sinc_order * periods - 1e-12, side="left")
-        last = np.searchsorted(valid_t, times + 1e-12, side="right")  # one past the newest tick in the window
+        # searched on the latest valid time at each tick (an invalid tick's -inf would unsort the times)
+        ordered = np.maximum.accumulate(valid_t)
+        first = np.searchsorted(ordered, times - self.adc.sinc_order * periods - 1e-12, side="left")
+        last = np.searchsorted(ordered, times + 1e-12, side="right")  # one past the newest tick in the window
         count = last - first
         width = int(max(2, count.max()))
         index = first[:, None] + np.arange(width)[None, :]
