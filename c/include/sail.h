@@ -368,17 +368,17 @@ typedef struct {
     const sail_calibration *cal;
     sail_rate_filter rates;
     int32_t pending;                   /* ticks held for the rate window */
-    double t_last;                     /* the last valid tick [s] */
+    sail_real t_last;                  /* the last valid tick [s after epoch] */
     sail_real gap;                     /* SAIL_GAP_FACTOR dt: the rate filter's break */
     sail_tick held[2 * SAIL_MAX_HALF_WINDOW + 1];
+    sail_real held_t[2 * SAIL_MAX_HALF_WINDOW + 1];  /* their times [s after epoch] */
     double epoch;                      /* stored times are relative to it [s]; NaN until the first valid tick */
     sail_real spline[SAIL_MAX_SINC_ORDER][SAIL_MAX_SINC_ORDER];  /* B_N on [s, s + 1): powers of x - s, highest first */
     sail_real tick_gap;                /* SAIL_GAP_STEPS ticks [s] */
     int32_t ticks, newest;             /* ticks held (up to SAIL_MAX_TICKS), the newest's slot */
     sail_adc_tick tick[SAIL_MAX_TICKS];
     sail_adc_cell cell[2];
-    sail_timed_force current;          /* the latest estimate (force_t relative to epoch) */
-    double current_epoch;
+    sail_timed_force current;          /* the latest estimate */
 } sail_multirate_state;
 
 /* Returns SAIL_CHECK_OK, or SAIL_CHECK_NULL, SAIL_CHECK_DYNAMICS (as sail_motion_init; dyn may be NULL: no dynamic

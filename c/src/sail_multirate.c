@@ -91,6 +91,8 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     state->cal = cal;
     state->pending = 0;
     state->t_last = 0;
+    for (i = 0; i < 2 * SAIL_MAX_HALF_WINDOW + 1; i++)
+        state->held_t[i] = 0;
     state->gap = dyn != NULL ? (sail_real)(SAIL_GAP_FACTOR * dyn->dt) : 0;
     state->epoch = NAN;
     spline_pieces(adc->sinc_order, state->spline);
@@ -109,7 +111,6 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     state->current.status = SAIL_MOTION_UNKNOWN;
     state->current.inertial[0] = state->current.inertial[1] = dyn != NULL ? SAIL_NAN : 0;
     state->current.force_t = NAN;
-    state->current_epoch = 0;
     return SAIL_CHECK_OK;
 }
 
@@ -163,6 +164,9 @@ static void rebase(sail_multirate_state *state, sail_real shift)
     for (i = 0; i < 2; i++)
         for (j = 0; j < SAIL_HISTORY; j++)
             state->cell[i].centroid[j] -= shift;
+    for (i = 0; i < 2 * SAIL_MAX_HALF_WINDOW + 1; i++)
+        state->held_t[i] -= shift;
+    state->t_last -= shift;
     state->epoch += (double)shift;
 }
 
@@ -206,31 +210,35 @@ static void convert(sail_multirate_state *state, int i, sail_real raw, double re
     const sail_real end = late + (sail_real)SAIL_WINDOW_SLACK;
     const int n = adc->sinc_order;
     sail_real total = 0, row0 = 0, row1 = 0, dynamic = 0;
-    int back, inside = 0, ok = 1, slot;
+    const sail_adc_tick *tick = &state->tick[state->newest], *const first = &state->tick[0];
+    const sail_adc_tick *const last = &state->tick[SAIL_MAX_TICKS - 1];
+    int back, inside = 0, ok = 1, slot, newer_flags = 0;
     /* the ticks from the newest back: first past the window's end, then inside it, oldest last */
-    for (back = 0; back < state->ticks; back++) {
-        const sail_adc_tick *tick = &state->tick[tick_slot(state, back)];
+    for (back = 0; back < state->ticks; back++, tick = tick == first ? last : tick - 1) {
+        const int flags = tick->flags;
         sail_real x, y, w;
-        int piece, p;
+        const sail_real *piece;
+        int p;
         if (tick->t > end)
             continue;
         if (tick->t < start) {
-            ok = ok && (tick->flags & SAIL_TICK_VALID);  /* the tick before the window must be known too */
+            ok = ok && (flags & SAIL_TICK_VALID);  /* the tick before the window must be known too */
             break;
         }
-        inside++;
-        if ((tick->flags & (SAIL_TICK_VALID | SAIL_TICK_KNOWN)) != (SAIL_TICK_VALID | SAIL_TICK_KNOWN))
+        if ((flags & (SAIL_TICK_VALID | SAIL_TICK_KNOWN)) != (SAIL_TICK_VALID | SAIL_TICK_KNOWN)
+            || (inside > 0 && (newer_flags & SAIL_TICK_GAP)))  /* the step into the newer tick is a gap */
             ok = 0;
-        if (inside > 1 && (state->tick[tick_slot(state, back - 1)].flags & SAIL_TICK_GAP))
-            ok = 0;  /* the step into the newer tick is a gap */
+        inside++;
+        newer_flags = flags;
         x = (late - tick->t) * inverse;
         if (!(x >= 0 && x < (sail_real)n))
             continue;
-        piece = (int)x;
-        y = x - (sail_real)piece;
-        w = state->spline[piece][0];
+        p = (int)x;
+        y = x - (sail_real)p;
+        piece = state->spline[p];
+        w = piece[0];
         for (p = 1; p < n; p++)
-            w = w * y + state->spline[piece][p];
+            w = w * y + piece[p];
         total += w;
         row0 += w * tick->m[2 * i];
         row1 += w * tick->m[2 * i + 1];
@@ -371,27 +379,31 @@ static void estimate(sail_multirate_state *state)
     out->status = status;
     out->inertial[0] = state->dyn != NULL ? v1.dynamic : 0;
     out->inertial[1] = state->dyn != NULL ? v2.dynamic : 0;
-    out->force_t = (double)instant;
-    state->current_epoch = state->epoch;
+    out->force_t = state->epoch + (double)instant;
+}
+
+/* A time relative to the epoch, which the first finite time sets; NaN for a time that is not a number. */
+static SAIL_ALWAYS_INLINE sail_real relative(sail_multirate_state *state, double t)
+{
+    if (!sail_finite_time(t))
+        return SAIL_NAN;
+    if (!(state->epoch == state->epoch))
+        state->epoch = t;
+    return (sail_real)(t - state->epoch);  /* the one software subtraction a tick on a single-precision FPU */
 }
 
 /* A tick whose rates are known (or not) comes out of the rate window: store it, take its conversions, and give
  * the latest estimate for its row. */
-static void process(sail_multirate_state *state, const sail_tick *tick, int known, const sail_real rates[4],
-                    sail_timed_force *out)
+static void process(sail_multirate_state *state, const sail_tick *tick, sail_real t, int known,
+                    const sail_real rates[4], sail_timed_force *out)
 {
-    int valid = sail_finite_time(tick->t) && tick->theta1 - tick->theta1 == 0 && tick->theta2 - tick->theta2 == 0;
+    int valid = t - t == 0 && tick->theta1 - tick->theta1 == 0 && tick->theta2 - tick->theta2 == 0;
     int i, fresh = 0;
     sail_adc_tick *slot;
-    sail_real t = 0;
-    if (valid) {
-        if (!(state->epoch == state->epoch))
-            state->epoch = tick->t;
-        t = (sail_real)(tick->t - state->epoch);
-        while (t >= SAIL_EPOCH_SPAN) {
-            rebase(state, SAIL_EPOCH_STEP);
-            t -= SAIL_EPOCH_STEP;
-        }
+    if (valid && t >= SAIL_EPOCH_SPAN) {
+        const sail_real shift = SAIL_EPOCH_STEP * (sail_real)(int32_t)(t / SAIL_EPOCH_STEP);
+        rebase(state, shift);
+        t -= shift;
     }
     state->newest = state->newest + 1 == SAIL_MAX_TICKS ? 0 : state->newest + 1;
     state->ticks += state->ticks < SAIL_MAX_TICKS;
@@ -422,7 +434,6 @@ static void process(sail_multirate_state *state, const sail_tick *tick, int know
     if (fresh)
         estimate(state);
     *out = state->current;
-    out->force_t = state->current.force_t + state->current_epoch;
     if (!valid) {
         out->fx = out->fy = SAIL_NAN;
         out->inertial[0] = out->inertial[1] = SAIL_NAN;
@@ -433,22 +444,25 @@ static void process(sail_multirate_state *state, const sail_tick *tick, int know
 
 int sail_multirate_step(sail_multirate_state *state, const sail_tick *in, sail_timed_force *out, sail_tick *held)
 {
-    sail_real rates[4] = {0, 0, 0, 0};
+    sail_real rates[4];
+    const sail_real t = relative(state, in->t);
+    rates[0] = rates[1] = rates[2] = rates[3] = 0;
     if (state->dyn == NULL) {
         if (held)
             *held = *in;
-        process(state, in, 1, rates, out);
+        process(state, in, t, 1, rates, out);
         return 1;
     }
     {
-        int valid = sail_finite_time(in->t);
+        int valid = t - t == 0;
         const int32_t x1 = sail_to_counts(in->theta1, &valid), x2 = sail_to_counts(in->theta2, &valid);
-        const sail_real step = (sail_real)(in->t - state->t_last);
+        const sail_real step = t - state->t_last;
         const int whole = sail_rates_link(&state->rates, valid, step > 0 && step <= state->gap);
         int oldest;
         if (valid)
-            state->t_last = in->t;
+            state->t_last = t;
         state->held[state->rates.slot] = *in;
+        state->held_t[state->rates.slot] = t;
         sail_rates_push(&state->rates, x1, x2);
         if (++state->pending <= state->dyn->half)
             return 0;
@@ -460,23 +474,24 @@ int sail_multirate_step(sail_multirate_state *state, const sail_tick *in, sail_t
             sail_rates_read(&state->rates, rates);
         if (held)
             *held = state->held[oldest];
-        process(state, &state->held[oldest], whole, rates, out);
+        process(state, &state->held[oldest], state->held_t[oldest], whole, rates, out);
         return 1;
     }
 }
 
 int sail_multirate_flush(sail_multirate_state *state, sail_timed_force *out, sail_tick *held)
 {
-    const sail_real rates[4] = {0, 0, 0, 0};
+    sail_real rates[4];
     int oldest;
     if (state->dyn == NULL || state->pending <= 0)
         return 0;
+    rates[0] = rates[1] = rates[2] = rates[3] = 0;
     oldest = state->rates.slot - state->pending;
     if (oldest < 0)
         oldest += state->rates.width;
     state->pending--;
     if (held)
         *held = state->held[oldest];
-    process(state, &state->held[oldest], 0, rates, out);
+    process(state, &state->held[oldest], state->held_t[oldest], 0, rates, out);
     return 1;
 }
