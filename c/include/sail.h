@@ -254,7 +254,7 @@ typedef struct {
     int32_t run;                                          /* linked samples since the last break, up to width */
     sail_real gamma_rate[SAIL_MAX_RATE_ORDER];            /* the rate kernel on t_1..t_order [rad/s per count] */
     sail_real gamma_accel[SAIL_MAX_RATE_ORDER];           /* the acceleration kernel [rad/s^2 per count] */
-    uint64_t entry[SAIL_MAX_RATE_ORDER + 1];              /* C(2 half + 1, k) */
+    uint32_t entry[SAIL_MAX_RATE_ORDER + 1];              /* C(2 half + 1, k) */
     int32_t gram[SAIL_MAX_RATE_ORDER][SAIL_MAX_RATE_ORDER + 1];   /* t_{d+1}(u) = sum_k gram[d][k] C(u, k) */
     uint64_t moment[2][SAIL_MAX_RATE_ORDER + 1];          /* U_k of each angle, exact (modulo 2^64) */
     int32_t counts[2 * SAIL_MAX_HALF_WINDOW + 1][2];      /* the window's angles in counts, a ring */
@@ -339,13 +339,21 @@ typedef struct {
     double force_t;            /* the instant the force refers to [s]: t - force_t is its age; NaN before the first */
 } sail_timed_force;
 
+/* An instant as the estimator keeps it: seconds in double builds; in float builds a whole number of 2^-32 s, so that
+ * a single-precision FPU needs no software double arithmetic for times (sail_math.h: sail_time_fixed). */
+#ifdef SAIL_DOUBLE
+typedef double sail_instant;
+#else
+typedef int64_t sail_instant;
+#endif
+
 /* A processed tick, as the estimator keeps it (times relative to the state's epoch). */
 typedef struct {
     sail_real t;               /* [s] after epoch; an invalid tick repeats the last valid time */
     sail_real theta[2];        /* [rad] */
-    sail_real m[4];            /* the sensing map M at this tick, row-major */
-    sail_real d[2];            /* the dynamic term's reading at this tick [raw] (0 without a dynamic term) */
-    uint8_t flags;             /* SAIL_TICK_* (sail_multirate.c) */
+    sail_real v[2][3];         /* per cell: its row of the sensing map M, and the dynamic term's reading [raw] (0
+                                  without a dynamic term) */
+    uint8_t flags;             /* what is wrong with it: SAIL_TICK_* (sail_multirate.c) */
 } sail_adc_tick;
 
 /* One cell's recent conversions. */
@@ -359,7 +367,8 @@ typedef struct {
     int32_t count, newest;             /* conversions held (up to SAIL_HISTORY), the newest's slot */
     sail_real interval[SAIL_PERIOD_MEMORY];  /* the last conversion intervals [s], a ring */
     int32_t intervals, next_interval;
-    double last_ready;                 /* the last conversion's data-ready time [s] (NaN: none yet) */
+    sail_instant last_ready;           /* the last conversion's data-ready time */
+    int32_t converted;                 /* whether it has had one */
 } sail_adc_cell;
 
 typedef struct {
@@ -372,8 +381,12 @@ typedef struct {
     sail_real gap;                     /* SAIL_GAP_FACTOR dt: the rate filter's break */
     sail_tick held[2 * SAIL_MAX_HALF_WINDOW + 1];
     sail_real held_t[2 * SAIL_MAX_HALF_WINDOW + 1];  /* their times [s after epoch] */
-    double epoch;                      /* stored times are relative to it [s]; NaN until the first valid tick */
-    sail_real spline[SAIL_MAX_SINC_ORDER][SAIL_MAX_SINC_ORDER];  /* B_N on [s, s + 1): powers of x - s, highest first */
+    double epoch;                      /* stored times are relative to it [s] */
+    sail_instant epoch_instant;        /* the same, as an instant */
+    sail_instant delay_instant;        /* adc->delay, as an instant's difference */
+    int32_t has_epoch;                 /* set by the first finite time */
+    sail_real spline[SAIL_MAX_SINC_ORDER + 2][SAIL_MAX_SINC_ORDER];  /* B_N on [s, s + 1) as spline[s + 1]: powers
+                                                                      of x - s, highest first (zero outside) */
     sail_real tick_gap;                /* SAIL_GAP_STEPS ticks [s] */
     int32_t ticks, newest;             /* ticks held (up to SAIL_MAX_TICKS), the newest's slot */
     sail_adc_tick tick[SAIL_MAX_TICKS];

@@ -11,10 +11,11 @@
 #include "sail_rates.h"
 #include "sail_static.h"
 
+/* What may be wrong with a tick (sail_adc_tick.flags). */
 enum {
-    SAIL_TICK_VALID = 1,  /* the tick's time and angles are numbers */
-    SAIL_TICK_KNOWN = 2,  /* M and d are known (the rates too, with a dynamic term) */
-    SAIL_TICK_GAP = 4     /* the step from the tick before is beyond SAIL_GAP_STEPS ticks */
+    SAIL_TICK_INVALID = 1,   /* its time or an angle is not a number */
+    SAIL_TICK_UNKNOWN = 2,   /* M or d is not known (with a dynamic term: the rates are not) */
+    SAIL_TICK_GAP_AFTER = 4  /* the step to the next tick is beyond SAIL_GAP_STEPS ticks */
 };
 
 /* Stored times stay within a quarter of a second of the epoch, which moves on by an eighth (exactly, in binary):
@@ -24,6 +25,17 @@ enum {
 #define SAIL_EPOCH_STEP SAIL_R(0.125)
 /* A conversion's window edges take ticks this close as inside (sailforce's 1e-12 s). */
 #define SAIL_WINDOW_SLACK 1e-12
+
+/* Instants (sail_instant): seconds in double builds, 2^-32 s in float builds. */
+#ifdef SAIL_DOUBLE
+#define INSTANT(t) (t)
+#define INSTANT_SPAN(s) ((double)(s))
+#define SECONDS(d) (d)
+#else
+#define INSTANT(t) sail_time_fixed(t)
+#define INSTANT_SPAN(s) ((int64_t)((double)(s) * SAIL_TIME_UNITS_PER_S))
+#define SECONDS(d) (sail_int64_real((uint64_t)(d)) * 2.3283064365386963e-10f)  /* 2^-32 */
+#endif
 
 static double factorial(int n)
 {
@@ -42,11 +54,12 @@ static double binomial_real(int n, int k)
 /* The cardinal B-spline of order n on [0, n] (de Boor, "A Practical Guide to Splines", 2001, IX (20)):
  *   B_n(x) = sum_k (-1)^k C(n, k) (x - k)_+^(n-1) / (n - 1)!,
  * on each piece [s, s + 1) a polynomial in y = x - s: coefficient of y^p = C(n-1, p) sum_{k<=s} (-1)^k C(n, k)
- * (s - k)^(n-1-p) / (n - 1)!.  Stored highest power first, for Horner. */
-static void spline_pieces(int n, sail_real pieces[SAIL_MAX_SINC_ORDER][SAIL_MAX_SINC_ORDER])
+ * (s - k)^(n-1-p) / (n - 1)!.  Stored highest power first, for Horner, as pieces[s + 1]: pieces[0] (before the
+ * window) and pieces[n + 1] (past it) are zero. */
+static void spline_pieces(int n, sail_real pieces[SAIL_MAX_SINC_ORDER + 2][SAIL_MAX_SINC_ORDER])
 {
     int s, p, k, i;
-    for (s = 0; s < SAIL_MAX_SINC_ORDER; s++)
+    for (s = 0; s < SAIL_MAX_SINC_ORDER + 2; s++)  /* the pieces before and past the window stay zero */
         for (p = 0; p < SAIL_MAX_SINC_ORDER; p++)
             pieces[s][p] = 0;
     for (s = 0; s < n; s++) {
@@ -58,7 +71,7 @@ static void spline_pieces(int n, sail_real pieces[SAIL_MAX_SINC_ORDER][SAIL_MAX_
                     power *= s - k;
                 sum += (k % 2 ? -1.0 : 1.0) * binomial_real(n, k) * power;
             }
-            pieces[s][n - 1 - p] = (sail_real)(binomial_real(n - 1, p) * sum / factorial(n - 1));
+            pieces[s + 1][n - 1 - p] = (sail_real)(binomial_real(n - 1, p) * sum / factorial(n - 1));
         }
     }
 }
@@ -94,7 +107,10 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     for (i = 0; i < 2 * SAIL_MAX_HALF_WINDOW + 1; i++)
         state->held_t[i] = 0;
     state->gap = dyn != NULL ? (sail_real)(SAIL_GAP_FACTOR * dyn->dt) : 0;
-    state->epoch = NAN;
+    state->epoch = 0;
+    state->epoch_instant = 0;
+    state->has_epoch = 0;
+    state->delay_instant = INSTANT_SPAN(adc->delay);
     spline_pieces(adc->sinc_order, state->spline);
     state->tick_gap = (sail_real)(SAIL_GAP_STEPS * adc->tick);
     state->ticks = 0;
@@ -105,7 +121,8 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
         cell->newest = SAIL_HISTORY - 1;
         cell->intervals = 0;
         cell->next_interval = 0;
-        cell->last_ready = NAN;
+        cell->last_ready = 0;
+        cell->converted = 0;
     }
     state->current.fx = state->current.fy = SAIL_NAN;
     state->current.status = SAIL_MOTION_UNKNOWN;
@@ -128,12 +145,12 @@ static SAIL_ALWAYS_INLINE int tick_parts(const sail_calibration *cal, const sail
     jt[1][1] = cal->l2 * c2;
     if (sensing_matrix(cal, theta1 - theta2, jt, m) != 0)
         return 0;
-    out->m[0] = m[0][0];
-    out->m[1] = m[0][1];
-    out->m[2] = m[1][0];
-    out->m[3] = m[1][1];
+    out->v[0][0] = m[0][0];
+    out->v[0][1] = m[0][1];
+    out->v[1][0] = m[1][0];
+    out->v[1][1] = m[1][1];
     if (dyn == NULL) {
-        out->d[0] = out->d[1] = 0;
+        out->v[0][2] = out->v[1][2] = 0;
         return 1;
     }
     sd = s1 * c2 - c1 * s2;  /* sin(theta1 - theta2) */
@@ -149,10 +166,10 @@ static SAIL_ALWAYS_INLINE int tick_parts(const sail_calibration *cal, const sail
                              + dyn->k[1][3] * (a1 * sd + w1 * cd) + dyn->k[1][4] * c2 + dyn->k[1][5] * s2;
         const sail_real b1 = dyn->l1 * v1, b2 = dyn->l2 * v2, det = -cal->l2 * cal->l3 * sd;  /* seed Eq. 9 */
         const sail_real wx = (jt[1][1] * b1 - jt[0][1] * b2) / det, wy = (jt[0][0] * b2 - jt[1][0] * b1) / det;
-        out->d[0] = m[0][0] * wx + m[0][1] * wy;
-        out->d[1] = m[1][0] * wx + m[1][1] * wy;
+        out->v[0][2] = m[0][0] * wx + m[0][1] * wy;
+        out->v[1][2] = m[1][0] * wx + m[1][1] * wy;
     }
-    return out->d[0] - out->d[0] == 0 && out->d[1] - out->d[1] == 0;
+    return out->v[0][2] - out->v[0][2] == 0 && out->v[1][2] - out->v[1][2] == 0;
 }
 
 /* Move the epoch on: every stored time shifts by the same amount, exactly (a power of two, on times below it). */
@@ -168,6 +185,7 @@ static void rebase(sail_multirate_state *state, sail_real shift)
         state->held_t[i] -= shift;
     state->t_last -= shift;
     state->epoch += (double)shift;
+    state->epoch_instant += INSTANT_SPAN(shift);
 }
 
 /* Slot of the tick `back` ticks before the newest. */
@@ -179,14 +197,16 @@ static SAIL_ALWAYS_INLINE int tick_slot(const sail_multirate_state *state, int b
 
 /* The chip's period at a conversion ready at `ready`: the mean of its last intervals, this one's included, the
  * nominal until it has one; an interval of a missed conversion (or a step back) is left out. */
-static sail_real measured_period(sail_adc_cell *cell, const sail_adc *adc, double ready)
+static sail_real measured_period(sail_adc_cell *cell, const sail_adc *adc, sail_instant ready)
 {
-    const double step = ready - cell->last_ready;  /* NaN before the first conversion */
+    const sail_real step = SECONDS(ready - cell->last_ready);
+    const int have = cell->converted;
     sail_real sum = 0;
     int i;
     cell->last_ready = ready;
-    if (step > 0 && step < SAIL_MISSED_CONVERSION * adc->period) {
-        cell->interval[cell->next_interval] = (sail_real)step;
+    cell->converted = 1;
+    if (have && step > 0 && step < (sail_real)(SAIL_MISSED_CONVERSION * adc->period)) {
+        cell->interval[cell->next_interval] = step;
         cell->next_interval = cell->next_interval + 1 == SAIL_PERIOD_MEMORY ? 0 : cell->next_interval + 1;
         cell->intervals += cell->intervals < SAIL_PERIOD_MEMORY;
     }
@@ -200,51 +220,54 @@ static sail_real measured_period(sail_adc_cell *cell, const sail_adc *adc, doubl
 }
 
 /* A conversion of cell i: its window over the ticks held, and the entry it adds to the cell's history. */
-static void convert(sail_multirate_state *state, int i, sail_real raw, double ready)
+static void convert(sail_multirate_state *state, int i, sail_real raw, sail_instant ready)
 {
     const sail_adc *adc = state->adc;
     sail_adc_cell *cell = &state->cell[i];
     const sail_real period = measured_period(cell, adc, ready);
-    const sail_real late = (sail_real)(ready - adc->delay - state->epoch), inverse = 1 / period;
+    const sail_real late = SECONDS(ready - state->delay_instant - state->epoch_instant), inverse = 1 / period;
     const sail_real start = late - (sail_real)adc->sinc_order * period - (sail_real)SAIL_WINDOW_SLACK;
     const sail_real end = late + (sail_real)SAIL_WINDOW_SLACK;
     const int n = adc->sinc_order;
     sail_real total = 0, row0 = 0, row1 = 0, dynamic = 0;
     const sail_adc_tick *tick = &state->tick[state->newest], *const first = &state->tick[0];
     const sail_adc_tick *const last = &state->tick[SAIL_MAX_TICKS - 1];
-    int back, inside = 0, ok = 1, slot, newer_flags = 0;
-    /* the ticks from the newest back: first past the window's end, then inside it, oldest last */
-    for (back = 0; back < state->ticks; back++, tick = tick == first ? last : tick - 1) {
-        const int flags = tick->flags;
-        sail_real x, y, w;
-        const sail_real *piece;
-        int p;
-        if (tick->t > end)
-            continue;
-        if (tick->t < start) {
-            ok = ok && (flags & SAIL_TICK_VALID);  /* the tick before the window must be known too */
-            break;
-        }
-        if ((flags & (SAIL_TICK_VALID | SAIL_TICK_KNOWN)) != (SAIL_TICK_VALID | SAIL_TICK_KNOWN)
-            || (inside > 0 && (newer_flags & SAIL_TICK_GAP)))  /* the step into the newer tick is a gap */
-            ok = 0;
-        inside++;
-        newer_flags = flags;
-        x = (late - tick->t) * inverse;
-        if (!(x >= 0 && x < (sail_real)n))
-            continue;
-        p = (int)x;
-        y = x - (sail_real)p;
-        piece = state->spline[p];
-        w = piece[0];
-        for (p = 1; p < n; p++)
-            w = w * y + piece[p];
-        total += w;
-        row0 += w * tick->m[2 * i];
-        row1 += w * tick->m[2 * i + 1];
-        dynamic += w * tick->d[i];
+    int left = state->ticks, inside = 0, ok, slot, bad = 0, mask = SAIL_TICK_INVALID | SAIL_TICK_UNKNOWN;
+    while (left > 0 && tick->t > end) {  /* ticks after the window's end */
+        left--;
+        tick = tick == first ? last : tick - 1;
     }
-    ok = ok && back < state->ticks && inside >= 2 && total > 0;  /* a tick before the window is held */
+    /* the window's ticks, newest first: every one valid and known, and no step between two of them a gap (the
+     * newest's step after it is outside).  The weight is the spline's piece at x (pieces outside the window are
+     * zero), by Horner's rule: unrolled for the HX711's and the ADS1232's sinc^4. */
+#define SAIL_WINDOW_LOOP(WEIGHT)                                                           \
+    for (; left > 0; left--, tick = tick == first ? last : tick - 1) {                     \
+        const sail_real t = tick->t, x = (late - t) * inverse + 1, *v = tick->v[i];        \
+        const sail_real *piece;                                                            \
+        sail_real y, w;                                                                    \
+        int p;                                                                             \
+        if (t < start)                                                                     \
+            break;                                                                         \
+        bad |= tick->flags & mask;                                                         \
+        mask = 0xff;                                                                       \
+        inside++;                                                                          \
+        p = (int)x;  /* x + 1 >= 0: the truncation is the floor; piece 0 is before the window */ \
+        y = x - (sail_real)p;                                                              \
+        piece = state->spline[p];                                                          \
+        WEIGHT;                                                                            \
+        total += w;                                                                        \
+        row0 += w * v[0];                                                                  \
+        row1 += w * v[1];                                                                  \
+        dynamic += w * v[2];                                                               \
+    }
+    if (n == 4) {
+        SAIL_WINDOW_LOOP(w = ((piece[0] * y + piece[1]) * y + piece[2]) * y + piece[3])
+    } else {
+        SAIL_WINDOW_LOOP(w = piece[0]; for (p = 1; p < n; p++) w = w * y + piece[p])
+    }
+#undef SAIL_WINDOW_LOOP
+    /* a tick before the window is held, and valid */
+    ok = left > 0 && !(tick->flags & SAIL_TICK_INVALID) && !bad && inside >= 2 && total > 0;
     slot = cell->newest + 1 == SAIL_HISTORY ? 0 : cell->newest + 1;
     cell->newest = slot;
     cell->count += cell->count < SAIL_HISTORY;
@@ -306,10 +329,10 @@ static int angles_at(const sail_multirate_state *state, sail_real instant, sail_
             lo = mid + 1;
     }
     for (back = lo; back < state->ticks && older == NULL; back++)
-        if (state->tick[tick_slot(state, back)].flags & SAIL_TICK_VALID)
+        if (!(state->tick[tick_slot(state, back)].flags & SAIL_TICK_INVALID))
             older = &state->tick[tick_slot(state, back)];
     for (back = lo - 1; back >= 0 && newer == NULL; back--)
-        if (state->tick[tick_slot(state, back)].flags & SAIL_TICK_VALID)
+        if (!(state->tick[tick_slot(state, back)].flags & SAIL_TICK_INVALID))
             newer = &state->tick[tick_slot(state, back)];
     if (older == NULL || (newer == NULL && older->t != instant))
         return 0;
@@ -382,14 +405,24 @@ static void estimate(sail_multirate_state *state)
     out->force_t = state->epoch + (double)instant;
 }
 
-/* A time relative to the epoch, which the first finite time sets; NaN for a time that is not a number. */
+/* A time [s] as an instant; the first finite time sets the epoch. */
+static SAIL_ALWAYS_INLINE sail_instant instant(sail_multirate_state *state, double t)
+{
+    const sail_instant value = INSTANT(t);
+    if (!state->has_epoch) {
+        state->has_epoch = 1;
+        state->epoch = t;
+        state->epoch_instant = value;
+    }
+    return value;
+}
+
+/* A time [s] relative to the epoch; NaN for a time that is not a number. */
 static SAIL_ALWAYS_INLINE sail_real relative(sail_multirate_state *state, double t)
 {
     if (!sail_finite_time(t))
         return SAIL_NAN;
-    if (!(state->epoch == state->epoch))
-        state->epoch = t;
-    return (sail_real)(t - state->epoch);  /* the one software subtraction a tick on a single-precision FPU */
+    return SECONDS(instant(state, t) - state->epoch_instant);
 }
 
 /* A tick whose rates are known (or not) comes out of the rate window: store it, take its conversions, and give
@@ -409,25 +442,25 @@ static void process(sail_multirate_state *state, const sail_tick *tick, sail_rea
     state->ticks += state->ticks < SAIL_MAX_TICKS;
     slot = &state->tick[state->newest];
     if (valid) {
-        const sail_real previous = state->ticks > 1 ? state->tick[tick_slot(state, 1)].t : t;
         slot->t = t;
         slot->theta[0] = tick->theta1;
         slot->theta[1] = tick->theta2;
-        slot->flags = (uint8_t)(SAIL_TICK_VALID
-                                | (tick_parts(state->cal, state->dyn, tick->theta1, tick->theta2, known, rates, slot)
-                                   ? SAIL_TICK_KNOWN : 0)
-                                | (state->ticks > 1 && t - previous > state->tick_gap ? SAIL_TICK_GAP : 0));
+        slot->flags = tick_parts(state->cal, state->dyn, tick->theta1, tick->theta2, known, rates, slot)
+                      ? 0 : SAIL_TICK_UNKNOWN;
+        if (state->ticks > 1) {
+            sail_adc_tick *before = &state->tick[tick_slot(state, 1)];
+            if (t - before->t > state->tick_gap)
+                before->flags |= SAIL_TICK_GAP_AFTER;
+        }
     } else {
         slot->t = state->ticks > 1 ? state->tick[tick_slot(state, 1)].t : 0;
         slot->theta[0] = slot->theta[1] = SAIL_NAN;
-        slot->flags = 0;
+        slot->flags = SAIL_TICK_INVALID | SAIL_TICK_UNKNOWN;
     }
     for (i = 0; i < 2; i++) {
         const double ready = sail_finite_time(tick->ready[i]) ? tick->ready[i] : tick->t;
         if (tick->load[i] - tick->load[i] == 0 && sail_finite_time(ready)) {  /* a conversion, at a known time */
-            if (!(state->epoch == state->epoch))
-                state->epoch = ready;
-            convert(state, i, tick->load[i], ready);
+            convert(state, i, tick->load[i], instant(state, ready));
             fresh = 1;
         }
     }

@@ -77,7 +77,7 @@ void sail_rates_init(sail_rate_filter *f, const sail_dynamics *dyn)
     f->run = 0;
     for (k = 0; k <= SAIL_MAX_RATE_ORDER; k++) {
         f->moment[0][k] = f->moment[1][k] = 0;
-        f->entry[k] = (uint64_t)binomial(n, k);
+        f->entry[k] = (uint32_t)binomial(n, k);  /* C(129, 4) < 2^24 */
     }
     for (d = 0; d < SAIL_MAX_RATE_ORDER; d++) {
         double norm = 0, rate = 0, accel = 0;

@@ -31,15 +31,21 @@ static SAIL_ALWAYS_INLINE int32_t sail_to_counts(sail_real theta, int *ok)
  * u = 2 half.  By Pascal's rule C(u - 1, k) = C(u, k) - C(u - 1, k - 1):
  *   U_0' = U_0 - x_old + x_new,   U_k' = U_k - U_{k-1}' + C(2 half + 1, k) x_new   (k >= 1),
  * in unsigned (modulo 2^64) arithmetic: exact, since every U_k fits in 64 bits. */
-static SAIL_ALWAYS_INLINE void sail_slide(uint64_t u[SAIL_MAX_RATE_ORDER + 1], const uint64_t entry[],
+static SAIL_OWN_CALL void sail_slide(uint64_t u[SAIL_MAX_RATE_ORDER + 1], const uint32_t entry[],
                                           int32_t x_old, int32_t x_new)
 {
     const uint64_t n = (uint64_t)(int64_t)x_new;
-    u[0] = u[0] - (uint64_t)(int64_t)x_old + n;
-    u[1] = u[1] - u[0] + entry[1] * n;
-    u[2] = u[2] - u[1] + entry[2] * n;
-    u[3] = u[3] - u[2] + entry[3] * n;
-    u[4] = u[4] - u[3] + entry[4] * n;
+    /* in locals: the compiler cannot know that u and entry do not overlap */
+    const uint64_t u0 = u[0] - (uint64_t)(int64_t)x_old + n;
+    const uint64_t u1 = u[1] - u0 + entry[1] * n;
+    const uint64_t u2 = u[2] - u1 + entry[2] * n;
+    const uint64_t u3 = u[3] - u2 + entry[3] * n;
+    const uint64_t u4 = u[4] - u3 + entry[4] * n;
+    u[0] = u0;
+    u[1] = u1;
+    u[2] = u2;
+    u[3] = u3;
+    u[4] = u4;
 }
 
 /* A 64-bit two's-complement integer as a sail_real.  In float, from its two halves (the high half is exact below
@@ -55,22 +61,20 @@ static SAIL_ALWAYS_INLINE sail_real sail_int64_real(uint64_t v)
 #endif
 }
 
-/* P_d = sum_k gram[d][k] U_k, modulo 2^64 (each coefficient fits in 32 bits). */
-#define SAIL_GRAM_TERM(f, u, d, k) ((uint64_t)(int64_t)(f)->gram[d][k] * (u)[k])
-
-/* One angle's rate and acceleration: the projections P_d (exact integers) weighted by the kernels' Gram
- * coefficients, unrolled to SAIL_MAX_RATE_ORDER (a lower order's coefficients are zero). */
-static SAIL_ALWAYS_INLINE void sail_rates_of(const sail_rate_filter *f, const uint64_t u[SAIL_MAX_RATE_ORDER + 1],
+/* One angle's rate and acceleration: the projections P_d = sum_k gram[d][k] U_k (exact integers, modulo 2^64)
+ * weighted by the kernels' Gram coefficients, unrolled to SAIL_MAX_RATE_ORDER (a lower order's coefficients are
+ * zero). */
+static SAIL_OWN_CALL void sail_rates_of(const sail_rate_filter *f, const uint64_t u[SAIL_MAX_RATE_ORDER + 1],
                                              sail_real *omega, sail_real *alpha)
 {
-    const sail_real p1 = sail_int64_real(SAIL_GRAM_TERM(f, u, 0, 0) + SAIL_GRAM_TERM(f, u, 0, 1));
-    const sail_real p2 = sail_int64_real(SAIL_GRAM_TERM(f, u, 1, 0) + SAIL_GRAM_TERM(f, u, 1, 1)
-                                         + SAIL_GRAM_TERM(f, u, 1, 2));
-    const sail_real p3 = sail_int64_real(SAIL_GRAM_TERM(f, u, 2, 0) + SAIL_GRAM_TERM(f, u, 2, 1)
-                                         + SAIL_GRAM_TERM(f, u, 2, 2) + SAIL_GRAM_TERM(f, u, 2, 3));
-    const sail_real p4 = sail_int64_real(SAIL_GRAM_TERM(f, u, 3, 0) + SAIL_GRAM_TERM(f, u, 3, 1)
-                                         + SAIL_GRAM_TERM(f, u, 3, 2) + SAIL_GRAM_TERM(f, u, 3, 3)
-                                         + SAIL_GRAM_TERM(f, u, 3, 4));
+    const uint64_t u0 = u[0], u1 = u[1], u2 = u[2], u3 = u[3], u4 = u[4];
+#define SAIL_G(d, k) ((uint64_t)(int64_t)f->gram[d][k])
+    const sail_real p1 = sail_int64_real(SAIL_G(0, 0) * u0 + SAIL_G(0, 1) * u1);
+    const sail_real p2 = sail_int64_real(SAIL_G(1, 0) * u0 + SAIL_G(1, 1) * u1 + SAIL_G(1, 2) * u2);
+    const sail_real p3 = sail_int64_real(SAIL_G(2, 0) * u0 + SAIL_G(2, 1) * u1 + SAIL_G(2, 2) * u2 + SAIL_G(2, 3) * u3);
+    const sail_real p4 = sail_int64_real(SAIL_G(3, 0) * u0 + SAIL_G(3, 1) * u1 + SAIL_G(3, 2) * u2 + SAIL_G(3, 3) * u3
+                                         + SAIL_G(3, 4) * u4);
+#undef SAIL_G
     const sail_real *w = f->gamma_rate, *a = f->gamma_accel;
     *omega = w[0] * p1 + w[1] * p2 + w[2] * p3 + w[3] * p4;
     *alpha = a[0] * p1 + a[1] * p2 + a[2] * p3 + a[3] * p4;

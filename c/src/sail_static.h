@@ -19,24 +19,33 @@ static inline void chebyshev_matrix(const sail_matrix_model *cal, sail_real delt
 {
     const int n = cal->n_terms;
     const sail_real x = (SAIL_R(2.0) * delta - (cal->cheb_lo + cal->cheb_hi)) / (cal->cheb_hi - cal->cheb_lo);
-    int i, j, k;
+    const sail_real x2 = x + x;
+    sail_real a0, a1, a2, a3, b0, b1, b2, b3;  /* Clenshaw's b_k and b_{k+1} of the four entries, in registers */
+    int k;
     if (n < 2) {
-        for (i = 0; i < 2; i++)
-            for (j = 0; j < 2; j++)
-                c[i][j] = cal->cheb[0][i][j];
+        c[0][0] = cal->cheb[0][0][0];
+        c[0][1] = cal->cheb[0][0][1];
+        c[1][0] = cal->cheb[0][1][0];
+        c[1][1] = cal->cheb[0][1][1];
         return;
     }
-    for (i = 0; i < 2; i++) {
-        for (j = 0; j < 2; j++) {
-            sail_real b0 = cal->cheb[n - 2][i][j], b1 = cal->cheb[n - 1][i][j];
-            for (k = n - 3; k >= 0; k--) {
-                const sail_real t = b0;
-                b0 = cal->cheb[k][i][j] - b1;
-                b1 = t + b1 * (x + x);
-            }
-            c[i][j] = b0 + b1 * x;
-        }
+    a0 = cal->cheb[n - 2][0][0], a1 = cal->cheb[n - 2][0][1], a2 = cal->cheb[n - 2][1][0], a3 = cal->cheb[n - 2][1][1];
+    b0 = cal->cheb[n - 1][0][0], b1 = cal->cheb[n - 1][0][1], b2 = cal->cheb[n - 1][1][0], b3 = cal->cheb[n - 1][1][1];
+    for (k = n - 3; k >= 0; k--) {  /* the term's four entries together: one pass over the series */
+        const sail_real t0 = a0, t1 = a1, t2 = a2, t3 = a3;
+        a0 = cal->cheb[k][0][0] - b0;
+        a1 = cal->cheb[k][0][1] - b1;
+        a2 = cal->cheb[k][1][0] - b2;
+        a3 = cal->cheb[k][1][1] - b3;
+        b0 = t0 + b0 * x2;
+        b1 = t1 + b1 * x2;
+        b2 = t2 + b2 * x2;
+        b3 = t3 + b3 * x2;
     }
+    c[0][0] = a0 + b0 * x;
+    c[0][1] = a1 + b1 * x;
+    c[1][0] = a2 + b2 * x;
+    c[1][1] = a3 + b3 * x;
 }
 
 /* p(x) for coefficients highest power first (numpy.polyval). */
