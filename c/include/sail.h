@@ -255,7 +255,7 @@ typedef struct {
     sail_real gamma_rate[SAIL_MAX_RATE_ORDER];            /* the rate kernel on t_1..t_order [rad/s per count] */
     sail_real gamma_accel[SAIL_MAX_RATE_ORDER];           /* the acceleration kernel [rad/s^2 per count] */
     uint32_t entry[SAIL_MAX_RATE_ORDER + 1];              /* C(2 half + 1, k) */
-    int32_t gram[SAIL_MAX_RATE_ORDER][SAIL_MAX_RATE_ORDER + 1];   /* t_{d+1}(u) = sum_k gram[d][k] C(u, k) */
+    uint32_t gram[SAIL_MAX_RATE_ORDER][SAIL_MAX_RATE_ORDER + 1];  /* t_{d+1}(u) = sum_k (-1)^(d+1+k) gram[d][k] C(u, k) */
     uint64_t moment[2][SAIL_MAX_RATE_ORDER + 1];          /* U_k of each angle, exact (modulo 2^64) */
     int32_t counts[2 * SAIL_MAX_HALF_WINDOW + 1][2];      /* the window's angles in counts, a ring */
 } sail_rate_filter;

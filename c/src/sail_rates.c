@@ -52,7 +52,7 @@ static double kernel_at(const double b[SAIL_MAX_RATE_ORDER + 1], double j)
 enum sail_check sail_rates_check(const sail_dynamics *dyn)
 {
     double sum_rate = 0, sum_accel = 0, size_rate = 0, size_accel = 0;
-    int u;
+    int u, d, k;
     for (u = 0; u <= 2 * dyn->half; u++) {
         const double w = kernel_at(dyn->rate, u - dyn->half), a = kernel_at(dyn->accel, u - dyn->half);
         sum_rate += w;
@@ -60,6 +60,15 @@ enum sail_check sail_rates_check(const sail_dynamics *dyn)
         size_rate += fabs(w);
         size_accel += fabs(a);
     }
+    for (d = 1; d <= SAIL_MAX_RATE_ORDER; d++)  /* sail_rates_of takes t_d's Newton coefficients to alternate in sign */
+        for (k = 0; k <= d; k++) {
+            int64_t difference = 0;
+            int i;
+            for (i = 0; i <= k; i++)
+                difference += ((k - i) % 2 ? -1 : 1) * binomial(k, i) * gram(d, 2 * dyn->half + 1, i);
+            if (difference == 0 || (difference < 0) != ((d + k) % 2 == 1))
+                return SAIL_CHECK_DYNAMICS;
+        }
     /* a derivative's kernel takes nothing from a constant angle: the rates are read on t_1.. only */
     if (!(fabs(sum_rate) <= 1e-9 * size_rate && fabs(sum_accel) <= 1e-9 * size_accel))
         return SAIL_CHECK_DYNAMICS;
@@ -85,7 +94,7 @@ void sail_rates_init(sail_rate_filter *f, const sail_dynamics *dyn)
             int64_t difference = 0;
             for (i = 0; i <= k; i++)
                 difference += ((k - i) % 2 ? -1 : 1) * binomial(k, i) * gram(d + 1, n, i);
-            f->gram[d][k] = (int32_t)difference;  /* |t_4| < 2^31 for windows up to 129 samples */
+            f->gram[d][k] = (uint32_t)(difference < 0 ? -difference : difference);  /* |t_4| < 2^31 up to 129 samples */
         }
         for (u = 0; u < n; u++) {  /* the kernels' coefficients on t_{d+1}: <w, t> / <t, t> */
             const double t = (double)gram(d + 1, n, u);

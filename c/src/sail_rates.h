@@ -68,12 +68,14 @@ static SAIL_OWN_CALL void sail_rates_of(const sail_rate_filter *f, const uint64_
                                              sail_real *omega, sail_real *alpha)
 {
     const uint64_t u0 = u[0], u1 = u[1], u2 = u[2], u3 = u[3], u4 = u[4];
-#define SAIL_G(d, k) ((uint64_t)(int64_t)f->gram[d][k])
-    const sail_real p1 = sail_int64_real(SAIL_G(0, 0) * u0 + SAIL_G(0, 1) * u1);
-    const sail_real p2 = sail_int64_real(SAIL_G(1, 0) * u0 + SAIL_G(1, 1) * u1 + SAIL_G(1, 2) * u2);
-    const sail_real p3 = sail_int64_real(SAIL_G(2, 0) * u0 + SAIL_G(2, 1) * u1 + SAIL_G(2, 2) * u2 + SAIL_G(2, 3) * u3);
-    const sail_real p4 = sail_int64_real(SAIL_G(3, 0) * u0 + SAIL_G(3, 1) * u1 + SAIL_G(3, 2) * u2 + SAIL_G(3, 3) * u3
-                                         + SAIL_G(3, 4) * u4);
+    /* the coefficients' signs alternate, (-1)^(degree + k) (checked by sail_rates_init): their magnitudes are
+     * unsigned 32-bit, a multiplication fewer on a 32-bit core */
+#define SAIL_G(d, k) ((uint64_t)f->gram[d][k])
+    const sail_real p1 = sail_int64_real(SAIL_G(0, 1) * u1 - SAIL_G(0, 0) * u0);
+    const sail_real p2 = sail_int64_real(SAIL_G(1, 0) * u0 + SAIL_G(1, 2) * u2 - SAIL_G(1, 1) * u1);
+    const sail_real p3 = sail_int64_real(SAIL_G(2, 1) * u1 + SAIL_G(2, 3) * u3 - SAIL_G(2, 0) * u0 - SAIL_G(2, 2) * u2);
+    const sail_real p4 = sail_int64_real(SAIL_G(3, 0) * u0 + SAIL_G(3, 2) * u2 + SAIL_G(3, 4) * u4 - SAIL_G(3, 1) * u1
+                                         - SAIL_G(3, 3) * u3);
 #undef SAIL_G
     const sail_real *w = f->gamma_rate, *a = f->gamma_accel;
     *omega = w[0] * p1 + w[1] * p2 + w[2] * p3 + w[3] * p4;
@@ -111,7 +113,7 @@ static SAIL_ALWAYS_INLINE int sail_rates_link(sail_rate_filter *f, int valid, in
     return f->run == f->width;
 }
 
-/* Set up the filter for dyn's kernels (checked by the caller). */
+/* Set up the filter for dyn's kernels (checked by the caller, with sail_rates_check). */
 void sail_rates_init(sail_rate_filter *f, const sail_dynamics *dyn);
 /* Whether dyn's kernels are derivatives (they sum to zero over the window): SAIL_CHECK_OK or SAIL_CHECK_DYNAMICS. */
 enum sail_check sail_rates_check(const sail_dynamics *dyn);
