@@ -260,6 +260,14 @@ typedef struct {
     int32_t counts[2 * SAIL_MAX_HALF_WINDOW + 1][2];      /* the window's angles in counts, a ring */
 } sail_rate_filter;
 
+/* An instant as the estimator keeps it: seconds in double builds; in float builds a whole number of 2^-32 s, so that
+ * a single-precision FPU needs no software double arithmetic for times (sail_math.h: sail_time_fixed). */
+#ifdef SAIL_DOUBLE
+typedef double sail_instant;
+#else
+typedef int64_t sail_instant;
+#endif
+
 /* The rate filter and a delay line: each reading comes out `half` samples after it went in, when its centred
  * window is complete (the same numbers as sailforce's offline estimate, which centres the window on each sample).
  * Sampling must be uniform at dyn->dt. */
@@ -267,7 +275,7 @@ typedef struct {
     const sail_dynamics *dyn;
     sail_rate_filter rates;
     int32_t pending;                                      /* readings held, not yet returned */
-    double t_last;                                        /* time of the last valid reading [s] */
+    sail_instant t_last;                                  /* time of the last valid reading */
     sail_real gap;                                        /* SAIL_GAP_FACTOR dt [s] */
     sail_reading held[2 * SAIL_MAX_HALF_WINDOW + 1];      /* the window's readings, a ring (the filter's slots) */
 } sail_motion_state;
@@ -338,14 +346,6 @@ typedef struct {
                                   without a dynamic term */
     double force_t;            /* the instant the force refers to [s]: t - force_t is its age; NaN before the first */
 } sail_timed_force;
-
-/* An instant as the estimator keeps it: seconds in double builds; in float builds a whole number of 2^-32 s, so that
- * a single-precision FPU needs no software double arithmetic for times (sail_math.h: sail_time_fixed). */
-#ifdef SAIL_DOUBLE
-typedef double sail_instant;
-#else
-typedef int64_t sail_instant;
-#endif
 
 /* A processed tick, as the estimator keeps it (times relative to the state's epoch). */
 typedef struct {

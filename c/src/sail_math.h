@@ -93,6 +93,19 @@ static inline int sail_finite_time(double t)
     return ((bits >> 52) & 0x7ff) != 0x7ff;
 }
 
+/* A 64-bit two's-complement integer as a sail_real.  In float, from its two halves (the high half is exact below
+ * 2^56, so the result is within 1.5 ulp) instead of libgcc's software conversion. */
+static SAIL_ALWAYS_INLINE sail_real sail_int64_real(uint64_t v)
+{
+#ifdef SAIL_DOUBLE
+    return v >> 63 ? -(double)(~v) - 1.0 : (double)v;
+#else
+    const uint32_t hi = (uint32_t)(v >> 32), lo = (uint32_t)v;
+    const float high = hi >> 31 ? -(float)(~hi) - 1.0f : (float)hi;
+    return high * 4294967296.0f + (float)lo;
+#endif
+}
+
 /* Units of a fixed-point time: 2^-32 s (0.23 ns). */
 #define SAIL_TIME_UNITS_PER_S 4294967296.0
 /* A time [s] as a whole number of 2^-32 s, truncated, from its bits: no software double arithmetic on a
@@ -114,6 +127,17 @@ static inline int64_t sail_time_fixed(double t)
         value = (int64_t)(shift >= 0 ? mantissa << shift : mantissa >> -shift);
     return bits >> 63 ? -value : value;
 }
+
+/* Instants (sail_instant): seconds in double builds, 2^-32 s in float builds. */
+#ifdef SAIL_DOUBLE
+#define INSTANT(t) (t)
+#define INSTANT_SPAN(s) ((double)(s))
+#define SECONDS(d) (d)
+#else
+#define INSTANT(t) sail_time_fixed(t)
+#define INSTANT_SPAN(s) ((int64_t)((double)(s) * SAIL_TIME_UNITS_PER_S))
+#define SECONDS(d) (sail_int64_real((uint64_t)(d)) * 2.3283064365386963e-10f)  /* 2^-32 */
+#endif
 
 static inline int sail_finite4(const sail_reading *r)
 {

@@ -99,10 +99,11 @@ int sail_motion_step(sail_motion_state *state, const sail_calibration *cal, doub
 {
     int valid = sail_finite_time(t);
     const int32_t x1 = sail_to_counts(in->theta1, &valid), x2 = sail_to_counts(in->theta2, &valid);
-    const sail_real step = (sail_real)(t - state->t_last);  /* one software subtraction on a single-precision FPU */
+    const sail_instant now = valid ? INSTANT(t) : 0;
+    const sail_real step = SECONDS(now - state->t_last);  /* no software double arithmetic on a single-precision FPU */
     const int whole = sail_rates_link(&state->rates, valid, step > 0 && step <= state->gap);
     if (valid)
-        state->t_last = t;
+        state->t_last = now;
     state->held[state->rates.slot] = *in;
     sail_rates_push(&state->rates, x1, x2);
     if (++state->pending <= state->dyn->half)

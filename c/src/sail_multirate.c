@@ -26,17 +26,6 @@ enum {
 /* A conversion's window edges take ticks this close as inside (sailforce's 1e-12 s). */
 #define SAIL_WINDOW_SLACK 1e-12
 
-/* Instants (sail_instant): seconds in double builds, 2^-32 s in float builds. */
-#ifdef SAIL_DOUBLE
-#define INSTANT(t) (t)
-#define INSTANT_SPAN(s) ((double)(s))
-#define SECONDS(d) (d)
-#else
-#define INSTANT(t) sail_time_fixed(t)
-#define INSTANT_SPAN(s) ((int64_t)((double)(s) * SAIL_TIME_UNITS_PER_S))
-#define SECONDS(d) (sail_int64_real((uint64_t)(d)) * 2.3283064365386963e-10f)  /* 2^-32 */
-#endif
-
 static double factorial(int n)
 {
     double f = 1;

@@ -48,19 +48,6 @@ static SAIL_OWN_CALL void sail_slide(uint64_t u[SAIL_MAX_RATE_ORDER + 1], const 
     u[4] = u4;
 }
 
-/* A 64-bit two's-complement integer as a sail_real.  In float, from its two halves (the high half is exact below
- * 2^56, so the result is within 1.5 ulp) instead of libgcc's software conversion. */
-static SAIL_ALWAYS_INLINE sail_real sail_int64_real(uint64_t v)
-{
-#ifdef SAIL_DOUBLE
-    return v >> 63 ? -(double)(~v) - 1.0 : (double)v;
-#else
-    const uint32_t hi = (uint32_t)(v >> 32), lo = (uint32_t)v;
-    const float high = hi >> 31 ? -(float)(~hi) - 1.0f : (float)hi;
-    return high * 4294967296.0f + (float)lo;
-#endif
-}
-
 /* One angle's rate and acceleration: the projections P_d = sum_k gram[d][k] U_k (exact integers, modulo 2^64)
  * weighted by the kernels' Gram coefficients, unrolled to SAIL_MAX_RATE_ORDER (a lower order's coefficients are
  * zero). */

@@ -28,7 +28,9 @@ motion, a task; :mod:`sailforce.motion.multirate`), calibrates it
 with a conversion, a saturated conversion and the conversions' data-ready
 times, and what :class:`sailforce.estimate.multirate.MultiRateEstimator`
 returns for each row (rates from the same Savitzky-Golay tracker as the
-stream).  ``multirate_static.csv`` is the same without the dynamic term.
+stream).  ``multirate_static.csv`` is the same without the dynamic term, and
+``multirate_sinc3.csv`` a session of sinc^3 conversions at 320 SPS (NAU7802)
+on the same map (``cal_sinc3.h``).
 
 It also writes ``lowpass.csv``, a reading sequence with invalid rows and the
 loads :class:`sailforce.estimate.filters.LowPass` makes of it, for the filter exported
@@ -44,6 +46,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -188,11 +191,20 @@ def _multirate_vectors(outdir: Path) -> None:
     later = int(np.flatnonzero(np.isfinite(loads[3000:, 1]))[0]) + 3000
     loads[later, 1] = cal.offsets[1] + 1.3 * cal.capacity[1]  # a saturated conversion
     ready[3500:3800, 0] = np.nan  # conversions stamped with their tick only
-    for name, dynamic in (("multirate", True), ("multirate_static", False)):
-        estimator = MultiRateEstimator(cal, dynamic=dynamic)
+    # a sinc^3 chip at 320 SPS (NAU7802) on the same map, without the dynamic term: the filter's other orders
+    sinc3 = replace(cal, adc=PRESETS["nau7802-320"], adc_delay_s=0.0, dynamics=None)
+    (outdir / "cal_sinc3.h").write_text(calibration_header(sinc3, "sail_cal_sinc3", sample_rate_hz=MOTION_RATE_HZ))
+    other = record_multirate(robot, sinc3.adc, reaches=2, hand_stiffness=100.0, offsets=offsets, seed=8)
+    other.theta[1000, 0] = np.nan  # an invalid angle
+    saturated = int(np.flatnonzero(np.isfinite(other.loads[1500:, 0]))[0]) + 1500
+    other.loads[saturated, 0] = cal.offsets[0] - 1.3 * cal.capacity[0]  # a saturated conversion
+    sets = [("multirate", cal, True, (t, q, loads, ready)), ("multirate_static", cal, False, (t, q, loads, ready)),
+            ("multirate_sinc3", sinc3, False, (other.t, other.theta, other.loads, other.load_t))]
+    for name, c_cal, dynamic, (t, q, loads, ready) in sets:
+        estimator = MultiRateEstimator(c_cal, dynamic=dynamic)
         rate = accel = None
         if dynamic:
-            rate, accel = derivatives(t, q, cal.dynamics.differentiator, dt=1.0 / MOTION_RATE_HZ)
+            rate, accel = derivatives(t, q, c_cal.dynamics.differentiator, dt=1.0 / MOTION_RATE_HZ)
         out = estimator.rows(t, q, loads, ready, np.zeros(t.size, bool), rate, accel)
         c = out.columns
         broken = np.where(np.isfinite(t) & np.all(np.isfinite(q), axis=1), 0.0, np.nan)  # libsail: 0 without the term

@@ -10,10 +10,17 @@
 #include "check.h"
 #include "sail.h"
 #include "sail_math.h"
+#include "sail_rates.h"
 
 static const double PI = 3.14159265358979323846;
 static const double G1 = 74000.0, G2 = 52800.0;  /* raw units (counts) per N m */
 static const double L2 = 0.3, L3 = 0.45;
+/* The rate filter against a double convolution: a float build reads its rates to 1e-6 of their scale. */
+#ifdef SAIL_DOUBLE
+#define SAIL_RATE_RTOL 1e-12
+#else
+#define SAIL_RATE_RTOL 1e-6
+#endif
 
 static sail_calibration pin_calibration(void)
 {
@@ -239,6 +246,73 @@ static void test_sincos(void)
     printf("sail_sincos: max error %.3g on |x| <= 50\n", worst);
 }
 
+/* Order-2 Savitzky-Golay kernels in closed form (Savitzky & Golay 1964), over offsets j = -h..h at step dt:
+ * rate c_j = j / (dt S2), S2 = sum j^2; acceleration c_j = 2 (j^2 - S2/N) / (dt^2 D), D = sum (j^2 - S2/N)^2. */
+static sail_dynamics quadratic_dynamics(int half, double dt)
+{
+    sail_dynamics dyn;
+    double s2 = 0, d = 0;
+    int j;
+    memset(&dyn, 0, sizeof dyn);
+    for (j = -half; j <= half; j++)
+        s2 += (double)j * j;
+    for (j = -half; j <= half; j++)
+        d += ((double)j * j - s2 / (2 * half + 1)) * ((double)j * j - s2 / (2 * half + 1));
+    dyn.dt = dt;
+    dyn.half = half;
+    dyn.order = 2;
+    dyn.rate[1] = 1 / (dt * s2);
+    dyn.accel[2] = 2 / (dt * dt * d);
+    dyn.accel[0] = -dyn.accel[2] * s2 / (2 * half + 1);
+    return dyn;
+}
+
+/* The rate filter in sail_real against the same kernels convolved in double with the angles in counts: the float
+ * build's rates stay within 1e-6 of the exact ones although the angle's level (1.2 rad, 3.2e6 counts) is thousands of
+ * times the window's change, because they are read on exact integer projections. */
+static void test_rate_filter_against_the_convolution(void)
+{
+    enum { HALF = 50, N = 2 * HALF + 1, SAMPLES = 600 };
+    const double dt = 1e-3, per_count = 6.283185307179586 / SAIL_COUNTS_PER_TURN;
+    const sail_dynamics dyn = quadratic_dynamics(HALF, dt);
+    static sail_rate_filter filter;
+    static int32_t counts[SAMPLES][2];
+    double worst_rate = 0, worst_accel = 0, scale_rate = 0, scale_accel = 0;
+    int i, j, k;
+    CHECK(sail_rates_check(&dyn) == SAIL_CHECK_OK, "closed-form kernels refused");
+    sail_rates_init(&filter, &dyn);
+    for (i = 0; i < SAMPLES; i++) {
+        const double t = i * dt;
+        int ok = 1;
+        counts[i][0] = sail_to_counts((sail_real)(1.2 + 0.8 * sin(3.0 * t)), &ok);
+        counts[i][1] = sail_to_counts((sail_real)(-0.4 + 0.5 * cos(5.0 * t)), &ok);
+        sail_rates_link(&filter, ok, 1);
+        sail_rates_push(&filter, counts[i][0], counts[i][1]);
+        if (i >= N - 1) {  /* the window's centre is sample i - HALF */
+            sail_real got[4];
+            double exact[4] = {0, 0, 0, 0};
+            sail_rates_read(&filter, got);
+            for (j = -HALF; j <= HALF; j++)
+                for (k = 0; k < 2; k++) {
+                    const double x = counts[i - HALF + j][k] * per_count;
+                    exact[2 * k] += dyn.rate[1] * j * x;
+                    exact[2 * k + 1] += (dyn.accel[0] + dyn.accel[2] * j * j) * x;
+                }
+            for (k = 0; k < 2; k++) {
+                worst_rate = fmax(worst_rate, fabs((double)got[2 * k] - exact[2 * k]));
+                worst_accel = fmax(worst_accel, fabs((double)got[2 * k + 1] - exact[2 * k + 1]));
+                scale_rate = fmax(scale_rate, fabs(exact[2 * k]));
+                scale_accel = fmax(scale_accel, fabs(exact[2 * k + 1]));
+            }
+        }
+    }
+    CHECK(worst_rate <= SAIL_RATE_RTOL * scale_rate, "rate off by %.3g of %.3g rad/s", worst_rate, scale_rate);
+    CHECK(worst_accel <= SAIL_RATE_RTOL * scale_accel, "acceleration off by %.3g of %.3g rad/s^2", worst_accel,
+          scale_accel);
+    printf("rate filter: worst |d omega| / max|omega| %.3g, |d alpha| / max|alpha| %.3g\n", worst_rate / scale_rate,
+           worst_accel / scale_accel);
+}
+
 /* sail_calibration_check and the init functions name what is wrong; the per-sample functions trust them. */
 static void test_checks(void)
 {
@@ -303,6 +377,34 @@ static void test_checks(void)
     CHECK(sail_motion_init(&motion, NULL) == SAIL_CHECK_NULL, "NULL dynamics");
 }
 
+/* sail_multirate_init names what is wrong with an ADC. */
+static void test_multirate_checks(void)
+{
+    static sail_multirate_state state;
+    const sail_calibration cal = pin_calibration();
+    const sail_dynamics dyn = quadratic_dynamics(20, 1e-3);
+    sail_adc adc = {0.0125, 4, 0.0, 1e-3};  /* an HX711 at 80 SPS, ticks at 1 kHz */
+    CHECK(sail_multirate_init(&state, &cal, &dyn, &adc) == SAIL_CHECK_OK, "HX711 at 80 SPS");
+    CHECK(sail_multirate_init(&state, &cal, NULL, &adc) == SAIL_CHECK_OK, "no dynamic term");
+    CHECK(sail_multirate_init(NULL, &cal, &dyn, &adc) == SAIL_CHECK_NULL, "NULL state");
+    CHECK(sail_multirate_init(&state, &cal, &dyn, NULL) == SAIL_CHECK_NULL, "NULL ADC");
+    adc.sinc_order = 0;
+    CHECK(sail_multirate_init(&state, &cal, &dyn, &adc) == SAIL_CHECK_ADC, "sinc^0");
+    adc.sinc_order = SAIL_MAX_SINC_ORDER + 1;
+    CHECK(sail_multirate_init(&state, &cal, &dyn, &adc) == SAIL_CHECK_ADC, "sinc^9");
+    adc.sinc_order = 4;
+    adc.period = 0.1;  /* an HX711 at 10 SPS: a 400 ms window does not fit 256 ticks of 1 ms */
+    CHECK(sail_multirate_init(&state, &cal, NULL, &adc) == SAIL_CHECK_ADC, "a window longer than the ring");
+    adc.period = 0.0125;
+    adc.delay = 0.02;  /* more than a period */
+    CHECK(sail_multirate_init(&state, &cal, &dyn, &adc) == SAIL_CHECK_ADC, "delay beyond a period");
+    adc.delay = 0;
+    adc.tick = 2e-3;  /* not the dynamic term's dt */
+    CHECK(sail_multirate_init(&state, &cal, &dyn, &adc) == SAIL_CHECK_ADC, "tick != dt");
+    adc.tick = NAN;
+    CHECK(sail_multirate_init(&state, &cal, NULL, &adc) == SAIL_CHECK_ADC, "tick NaN");
+}
+
 int main(void)
 {
     test_checks();
@@ -315,5 +417,7 @@ int main(void)
     test_block();
     test_tare();
     test_lowpass_first_order();
+    test_rate_filter_against_the_convolution();
+    test_multirate_checks();
     return check_report("test_api");
 }

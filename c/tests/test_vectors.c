@@ -3,7 +3,7 @@
  *   test_vectors matrix|seed VECTORS.csv   sail_estimate vs Calibration.estimate
  *   test_vectors lowpass LOWPASS.csv        sail_lowpass_process vs sailforce.estimate.LowPass
  *   test_vectors motion MOTION.csv          sail_motion_step/flush vs sailforce.estimate.estimate_moving
- *   test_vectors multirate[_static] MR.csv  sail_multirate_step/flush vs sailforce.estimate.multirate
+ *   test_vectors multirate[_static|_sinc3] MR.csv  sail_multirate_step/flush vs sailforce.estimate.multirate
  * Statuses must be identical; forces agree norm-wise, |dF| <= SAIL_TEST_RTOL |F|.
  */
 #include <stdio.h>
@@ -14,6 +14,7 @@
 #include "cal_motion.h"
 #include "cal_multirate.h"
 #include "cal_seed.h"
+#include "cal_sinc3.h"
 #include "check.h"
 #include "sail.h"
 
@@ -195,7 +196,7 @@ static int motion_vectors(const char *path)
 
 /* Ticks in, one at a time, with each cell's conversions; each tick comes out `half` ticks later (at once without a
  * dynamic term), then the flush.  force_t is compared in absolute time: it is the estimate's instant. */
-static int multirate_vectors(const char *path, const sail_dynamics *dyn)
+static int multirate_vectors(const char *path, const sail_calibration *cal, const sail_dynamics *dyn, const sail_adc *adc)
 {
     static sail_multirate_state state;
     const int delay = dyn ? dyn->half : 0;
@@ -208,7 +209,7 @@ static int multirate_vectors(const char *path, const sail_dynamics *dyn)
         if (isfinite(rows[i][10]))
             inertial_scale = fmax(inertial_scale, fmax(fabs(rows[i][10]), fabs(rows[i][11])));
     }
-    CHECK(sail_multirate_init(&state, &sail_cal_multirate, dyn, &sail_cal_multirate_adc) == SAIL_CHECK_OK, "init");
+    CHECK(sail_multirate_init(&state, cal, dyn, adc) == SAIL_CHECK_OK, "init");
     for (i = 0; i <= n + delay; i++) {
         sail_timed_force f;
         sail_tick held;
@@ -276,7 +277,7 @@ static int multirate_vectors(const char *path, const sail_dynamics *dyn)
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion|multirate|multirate_static FILE.csv\n");
+        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion|multirate|multirate_static|multirate_sinc3 FILE.csv\n");
         return 2;
     }
     if (!strcmp(argv[1], "matrix"))
@@ -288,9 +289,11 @@ int main(int argc, char **argv)
     else if (!strcmp(argv[1], "motion"))
         motion_vectors(argv[2]);
     else if (!strcmp(argv[1], "multirate"))
-        multirate_vectors(argv[2], &sail_cal_multirate_dynamics);
+        multirate_vectors(argv[2], &sail_cal_multirate, &sail_cal_multirate_dynamics, &sail_cal_multirate_adc);
     else if (!strcmp(argv[1], "multirate_static"))
-        multirate_vectors(argv[2], NULL);
+        multirate_vectors(argv[2], &sail_cal_multirate, NULL, &sail_cal_multirate_adc);
+    else if (!strcmp(argv[1], "multirate_sinc3"))
+        multirate_vectors(argv[2], &sail_cal_sinc3, NULL, &sail_cal_sinc3_adc);
     else {
         fprintf(stderr, "unknown vector set %s\n", argv[1]);
         return 2;
