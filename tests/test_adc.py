@@ -22,7 +22,7 @@ from sailforce.estimate.multirate import MultiRateEstimator, held_loads
 from sailforce.fit.multirate import hold_samples, measure_clock
 from sailforce.motion.differentiate import derivatives
 from sailforce.motion.multirate import record_holds, record_multirate
-from sailforce.status import MOTION_UNKNOWN, OK
+from sailforce.status import INVALID, MOTION_UNKNOWN, OK
 from sailforce.stream import estimate_lines, stream_estimate
 from sailforce.synthetic import NoiseModel, calibration_session, session_offsets
 
@@ -290,6 +290,24 @@ def test_the_estimate_does_not_depend_on_how_the_rows_are_cut(rig):
     for name in whole:
         np.testing.assert_array_equal(whole[name], cut[name])  # bit for bit: each window summed in one order
     np.testing.assert_array_equal(status, cut_status)
+
+
+def test_an_invalid_tick_spoils_only_the_windows_that_hold_it(rig):
+    """An invalid tick (its angle not a number) once unsorted the times the windows are searched in: estimates well
+    before it changed with whether it was in the same chunk.  libsail's shared vectors caught it."""
+    *_, cal, task = rig
+    k = 3000
+    theta = task.theta.copy()
+    theta[k, 1] = np.nan
+    broken = replace(task, theta=theta)
+    clean, clean_status = _estimate(cal, task)
+    whole, status = _estimate(cal, broken)
+    cut, cut_status = _estimate(cal, broken, chunk=k + 1)  # the invalid tick alone at the end of a chunk
+    for name in whole:
+        np.testing.assert_array_equal(whole[name], cut[name])
+        np.testing.assert_array_equal(whole[name][: k - 200], clean[name][: k - 200])
+    np.testing.assert_array_equal(status, cut_status)
+    assert status[k] == INVALID and np.all(status[: k - 200] == clean_status[: k - 200])
 
 
 def test_rows_before_both_cells_have_a_settled_conversion_are_motion_unknown(rig):
