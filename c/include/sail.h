@@ -260,12 +260,14 @@ typedef struct {
     int32_t counts[2 * SAIL_MAX_HALF_WINDOW + 1][2];      /* the window's angles in counts, a ring */
 } sail_rate_filter;
 
-/* An instant as the estimator keeps it: seconds in double builds; in float builds a whole number of 2^-32 s, so that
- * a single-precision FPU needs no software double arithmetic for times (sail_math.h: sail_time_fixed). */
-#ifdef SAIL_DOUBLE
-typedef double sail_instant;
-#else
+/* An instant as the estimators keep it: seconds, or, in float builds for an ARM core without double-precision
+ * hardware (a Cortex-M4F), a whole number of 2^-32 s, so that times need no software double arithmetic there
+ * (SAIL_FIXED_TIME; sail_math.h's sail_time_fixed).  Times must then lie within +-2^30 s (34 years). */
+#if !defined(SAIL_DOUBLE) && defined(__arm__) && !(defined(__ARM_FP) && (__ARM_FP & 8))
+#define SAIL_FIXED_TIME 1
 typedef int64_t sail_instant;
+#else
+typedef double sail_instant;
 #endif
 
 /* The rate filter and a delay line: each reading comes out `half` samples after it went in, when its centred

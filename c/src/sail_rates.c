@@ -72,6 +72,13 @@ enum sail_check sail_rates_check(const sail_dynamics *dyn)
     /* a derivative's kernel takes nothing from a constant angle: the rates are read on t_1.. only */
     if (!(fabs(sum_rate) <= 1e-9 * size_rate && fabs(sum_accel) <= 1e-9 * size_accel))
         return SAIL_CHECK_DYNAMICS;
+    /* and, centred, the rate's kernel is odd and the acceleration's even: sail_rates_of reads each on its parity */
+    for (u = 1; u <= dyn->half; u++) {
+        const double wp = kernel_at(dyn->rate, u), wm = kernel_at(dyn->rate, -u);
+        const double ap = kernel_at(dyn->accel, u), am = kernel_at(dyn->accel, -u);
+        if (!(fabs(wp + wm) <= 1e-9 * size_rate && fabs(ap - am) <= 1e-9 * size_accel))
+            return SAIL_CHECK_DYNAMICS;
+    }
     return SAIL_CHECK_OK;
 }
 

@@ -64,9 +64,10 @@ static SAIL_OWN_CALL void sail_rates_of(const sail_rate_filter *f, const uint64_
     const sail_real p4 = sail_int64_real(SAIL_G(3, 0) * u0 + SAIL_G(3, 2) * u2 + SAIL_G(3, 4) * u4 - SAIL_G(3, 1) * u1
                                          - SAIL_G(3, 3) * u3);
 #undef SAIL_G
-    const sail_real *w = f->gamma_rate, *a = f->gamma_accel;
-    *omega = w[0] * p1 + w[1] * p2 + w[2] * p3 + w[3] * p4;
-    *alpha = a[0] * p1 + a[1] * p2 + a[2] * p3 + a[3] * p4;
+    /* a centred window's rate kernel is odd and its acceleration kernel even (sail_rates_check): each lies on the
+     * Gram polynomials of its own parity */
+    *omega = f->gamma_rate[0] * p1 + f->gamma_rate[2] * p3;
+    *alpha = f->gamma_accel[1] * p2 + f->gamma_accel[3] * p4;
 }
 
 /* Push one sample's counts into the window (the slot the oldest leaves from). */
