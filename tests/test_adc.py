@@ -411,3 +411,45 @@ def test_sail_estimate_on_stdin_writes_the_file_mode_s_bytes(rig, tmp_path):
     assert piped.returncode == 0, piped.stderr
     assert piped.stdout == (tmp_path / "file.csv").read_bytes()
     assert b"force_t_s,status" in piped.stdout.splitlines()[0]
+
+
+def test_a_multirate_rig_on_a_serial_port_gives_the_file_mode_s_bytes(rig, tmp_path):
+    """A rig's lines through a pseudo-terminal, read as `sail estimate --serial` reads them (the port opened first, the
+    lines from its header on, until the hang-up): the file mode's bytes."""
+    import array
+    import fcntl
+    import os
+    import termios
+    import threading
+    import time
+    import tty
+
+    from sailforce.live import sources
+    from sailforce.live.pipeline import StampedLines
+
+    *_, cal, task = rig
+    short = replace(task, t=task.t[:1500], theta=task.theta[:1500], loads=task.loads[:1500], load_t=task.load_t[:1500])
+    _write(short, tmp_path / "task.csv")
+    stream_estimate(cal, tmp_path / "task.csv", tmp_path / "file.csv")
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    data = (tmp_path / "task.csv").read_bytes()
+
+    def send() -> None:  # as a rig sends, while the reader reads: a pseudo-terminal holds a few kB
+        for start in range(0, len(data), 1024):
+            os.write(master, data[start : start + 1024])
+        waiting = array.array("i", [1])
+        while waiting[0]:  # what the port has not read yet is lost at the hang-up
+            fcntl.ioctl(slave, termios.FIONREAD, waiting)
+            time.sleep(0.01)
+        os.close(master)  # the hang-up ends the stream
+
+    out = io.BytesIO()
+    with sources.serial_lines(os.ttyname(slave), 115200) as port:
+        sender = threading.Thread(target=send)
+        sender.start()
+        stamps = StampedLines()
+        estimate_lines(cal, stamps.lines(sources.gathered(sources.from_header(port))), lambda: out, source="a serial port")
+        sender.join(timeout=30)
+    os.close(slave)
+    assert out.getvalue() == (tmp_path / "file.csv").read_bytes()
