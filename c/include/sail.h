@@ -3,7 +3,7 @@
  * in portable C99 for the robot's microcontroller.
  *
  * The same estimator as sailforce's Python `Calibration.estimate`
- * (src/sailforce/calibration/estimator.py); calibrations come from `sail calibrate`
+ * (src/sailforce/estimate/estimator.py; with real ADCs, src/sailforce/estimate/multirate.py); calibrations come from `sail calibrate`
  * and are turned into C initializers by `sail export-c`.
  *
  * No malloc, no globals, no I/O.  Angles in radians, counter-clockwise from
@@ -22,6 +22,8 @@
  *                     solved by Cramer's rule; singular where |sin(theta1 - theta2)| < SAIL_SINGULAR_SIN_DELTA
  *                     (det J = -l2 l3 sin(delta), seed Eq. 9);
  *   in motion         F = M^-1 (s - offset) - w,   J^T w = (l1 V1, l2 V2)   (V: the cells' dynamic shears);
+ *   real ADCs         per conversion of cell i, its filter's window averaged:  u_i = r_i - offset_i - sum_j w_j d_i(t_j)
+ *                     = (sum_j w_j M_i(q_j)) F(c_i), solved at the older cell's window centroid (sail_multirate_step);
  *   low-pass          per second-order section (transposed direct form II, as scipy.signal.sosfilt):
  *                     y[n] = b0 x[n] + z1;  z1 = b1 x[n] - a1 y[n] + z2;  z2 = b2 x[n] - a2 y[n],
  *                     with CMSIS-DSP's arm_biquad_cascade_df2T coefficients {b0, b1, b2, -a1, -a2}
