@@ -113,6 +113,10 @@ def run() -> list[tuple[str, str]]:
              f'#include "{vectors / "cal_multirate.h"}"\n#define BENCH_CAL sail_cal_multirate\n'
              "#define BENCH_DYN sail_cal_multirate_dynamics\n#define BENCH_ADC sail_cal_multirate_adc\n",
              "sail_multirate_step", TARGET_TICK_INSTRUCTIONS, TICKS + WARM_UP, WARM_UP),
+            ("sail_multirate_step, the same without the dynamic term (mean per tick)", "bench_multirate.c",
+             f'#include "{vectors / "cal_multirate.h"}"\n#define BENCH_CAL sail_cal_multirate\n'
+             "#define BENCH_STATIC 1\n#define BENCH_ADC sail_cal_multirate_adc\n",
+             "sail_multirate_step", None, TICKS + WARM_UP, WARM_UP),
         ]  # fmt: skip
         for i, (label, program, header, function, target, calls, skip) in enumerate(cases):
             exe = _build(tmp, program, header, f"case{i}")
