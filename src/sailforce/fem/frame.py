@@ -133,10 +133,12 @@ def _element_basis(n_dofs: int, n_axes: int, element_dofs: np.ndarray, element_a
     """``(5 n_axes + 1, n_dofs, n_dofs)``: the members' local matrices ``local (E, 6, 6)`` in global axes, by monomial."""
     full = np.zeros((_MONOMIALS * n_axes + 1, n_dofs, n_dofs))
     blocks = member_basis(local)  # (E, 6, 6, 6)
-    for e, dofs in enumerate(element_dofs):  # a member's six DOFs are distinct
-        rows = [_MONOMIALS * element_axis[e] + m for m in range(_MONOMIALS)] + [-1]
-        for m, row in enumerate(rows):
-            full[row][np.ix_(dofs, dofs)] += blocks[e, m]
+    # every member's block into its rows at once; np.add.at adds in index order (member, monomial, entry), so each
+    # entry sums its members in order, as a loop over them would (a member's six DOFs are distinct)
+    rows = np.concatenate([_MONOMIALS * element_axis[:, None] + np.arange(_MONOMIALS)[None, :],
+                           np.full((len(element_dofs), 1), full.shape[0] - 1)], axis=1)  # fmt: skip
+    dofs = np.asarray(element_dofs, dtype=int)
+    np.add.at(full, (rows[:, :, None, None], dofs[:, None, :, None], dofs[:, None, None, :]), blocks)
     return full
 
 
