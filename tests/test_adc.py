@@ -453,3 +453,25 @@ def test_a_multirate_rig_on_a_serial_port_gives_the_file_mode_s_bytes(rig, tmp_p
         sender.join(timeout=30)
     os.close(slave)
     assert out.getvalue() == (tmp_path / "file.csv").read_bytes()
+
+
+def test_the_live_page_shows_a_multirate_estimate_s_age(rig, tmp_path):
+    """`sail live` replaying a rig with real ADCs: the page shows how old the force is, t_s - force_t_s, in ms."""
+    from sailforce.live.browser import browser_page, live_process, system_chromium
+
+    if system_chromium() is None:
+        pytest.fail("no Chromium on this machine: `make test` installs Debian's (`make chromium`)")
+    *_, cal, task = rig
+    cal.save(tmp_path / "cal.json")
+    short = replace(task, t=task.t[:6000], theta=task.theta[:6000], loads=task.loads[:6000], load_t=task.load_t[:6000])
+    _write(short, tmp_path / "task.csv")
+    columns, _ = _estimate(cal, short)
+    dated = np.isfinite(columns["force_t_s"])
+    ages_ms = 1e3 * (short.t - columns["force_t_s"])[dated]  # every age a row can show
+    assert 0 < ages_ms.min() and ages_ms.max() <= 1e3 * MAX_AGE_S
+    with live_process(["--calibration", tmp_path / "cal.json", tmp_path / "task.csv", "--replay"]) as live:
+        with browser_page(live.url) as page:
+            page.wait_for_function("!document.getElementById('age-row').hidden && "
+                                   "/^[0-9]+$/.test(document.getElementById('age-ms').textContent)", timeout=30_000)  # fmt: skip
+            age = float(page.text_content("#age-ms"))
+    assert ages_ms.min() - 1 <= age <= ages_ms.max() + 1, (age, ages_ms.min(), ages_ms.max())

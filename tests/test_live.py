@@ -241,6 +241,26 @@ def test_state_keeps_a_decimated_bounded_history():
     assert len(newer) == 3 and newer == points[-3:]
 
 
+def test_state_passes_a_multirate_estimate_s_instant_for_its_age():
+    """With a real ADC each row carries force_t_s, the instant its force refers to; the page shows t_s - force_t_s."""
+    state = LiveState()
+    cal_like = type("C", (), {"arm": Robot().arm, "offsets": (0.0, 0.0), "capacity": (10.0, 10.0)})()
+    k = 5
+    t = 2.0 + np.arange(k) * 1e-3
+    force_t = np.array([np.nan, np.nan, 1.9725, 1.9725, 1.9801])  # none yet, then the latest conversion's centroid
+    state(Rows(t, {"t_s": t, "theta1_deg": np.full(k, 80.0), "theta2_deg": np.full(k, 10.0), "load1": np.ones(k),
+                   "load2": np.ones(k)},
+               {"fx_N": np.ones(k), "fy_N": np.zeros(k), "force_N": np.ones(k), "angle_deg": np.zeros(k),
+                "force_t_s": force_t}, np.zeros(k, dtype=np.int64)))  # fmt: skip
+    latest, *_ = state.snapshot(cal_like)
+    assert latest["force_t_s"] == 1.9801 and latest["t_s"] - latest["force_t_s"] == pytest.approx(0.0239)
+    state(Rows(t[:1], {"t_s": t[:1], "theta1_deg": np.full(1, 80.0), "theta2_deg": np.full(1, 10.0),
+                       "load1": np.ones(1), "load2": np.ones(1)},
+               {"fx_N": np.ones(1), "fy_N": np.zeros(1), "force_N": np.ones(1), "angle_deg": np.zeros(1),
+                "force_t_s": np.full(1, np.nan)}, np.zeros(1, dtype=np.int64)))  # fmt: skip
+    assert state.snapshot(cal_like)[0]["force_t_s"] is None  # before the first estimate: no age (JSON null)
+
+
 # -- the server -----------------------------------------------------------------------------------------
 def _serve_and(cal, source, record_dir, check):
     """Run ``check(client, server)`` against a LiveServer of ``source``'s rows, in aiohttp's test client."""

@@ -33,9 +33,10 @@ HISTORY_STEP_S = 0.01
 #: The input rate is counted over this much of the past [s].
 RATE_WINDOW_S = 1.0
 
-#: The numbers of a row that the page receives (when the input has them).
+#: The numbers of a row that the page receives (when the input has them).  With a real ADC (a multi-rate stream)
+#: ``force_t_s`` is the instant the force refers to, and the page shows its age, ``t_s - force_t_s``.
 SAMPLE_FIELDS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "fx_N", "fy_N", "force_N", "angle_deg",
-                 "inertial1", "inertial2")  # fmt: skip
+                 "inertial1", "inertial2", "force_t_s")  # fmt: skip
 
 
 def _number(value) -> float | None:

@@ -65,6 +65,10 @@ function onUpdate(message) {
     setText("fx-N", fmt(s.fx_N, 2));
     setText("fy-N", fmt(s.fy_N, 2));
     setText("theta-deg", `${fmt(s.theta1_deg, 2)}, ${fmt(s.theta2_deg, 2)}`);
+    // a real ADC's estimate refers to an instant before the row's tick: its age, t_s - force_t_s
+    const multirate = s.force_t_s !== undefined;
+    $("age-row").hidden = !multirate;
+    if (multirate) setText("age-ms", s.force_t_s === null || s.t_s === null ? "–" : ((s.t_s - s.force_t_s) * 1e3).toFixed(0));
     setText("status", s.status);
     $("status").className = "status " + (STATUS_CLASS[s.status] || "");
     for (const i of [0, 1]) showCell(i, s.cells[i], s.status === "saturated");
