@@ -21,7 +21,7 @@ from sailforce.errors import InputError, MotionDataError, RobotFileError, TableE
 from sailforce.estimate.multirate import MultiRateEstimator, held_loads
 from sailforce.fit.multirate import hold_samples, measure_clock
 from sailforce.motion.differentiate import derivatives
-from sailforce.motion.multirate import record_holds, record_multirate
+from sailforce.motion.multirate import multirate_columns, record_holds, record_multirate
 from sailforce.status import INVALID, MOTION_UNKNOWN, OK
 from sailforce.stream import estimate_lines, stream_estimate
 from sailforce.synthetic import NoiseModel, calibration_session, session_offsets
@@ -160,11 +160,8 @@ def rig():
     t1, t2, fx, fy, _, _ = calibration_session(robot, seed=2, offsets=offsets)
     holds = record_holds(robot, adc, t1, t2, fx, fy, hold_s=0.5, offsets=offsets, seed=1)
     free = record_multirate(robot, adc, reaches=16, offsets=offsets, seed=3)
-    columns = lambda r, force, names: {"t_s": r.t, "theta1_deg": np.degrees(r.theta[:, 0]), "theta2_deg": np.degrees(r.theta[:, 1]),
-                                       "load1": r.loads[:, 0], "load2": r.loads[:, 1], "load1_t_s": r.load_t[:, 0],
-                                       "load2_t_s": r.load_t[:, 1], names[0]: force[:, 0], names[1]: force[:, 1]}  # fmt: skip
-    static_columns = columns(holds, holds.force, ("fx_N", "fy_N"))
-    free_columns = columns(free, free.force, ("true_fx_N", "true_fy_N"))
+    static_columns = multirate_columns(holds, ("fx_N", "fy_N"))
+    free_columns = multirate_columns(free)
     cal = calibrate(static_columns, robot=robot, model="matrix", adc=adc, free_motion=free_columns)
     task = record_multirate(robot, adc, reaches=8, hand_stiffness=100.0, offsets=offsets, seed=7)
     return robot, adc, offsets, holds, static_columns, cal, task
@@ -320,11 +317,9 @@ def test_rows_before_both_cells_have_a_settled_conversion_are_motion_unknown(rig
 def _write(rec, path: Path) -> None:
     from sailforce.io.files import numeric_table_writer
 
-    names = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "load1_t_s", "load2_t_s")
-    with numeric_table_writer(path, names, missing="") as write:
-        write({"t_s": rec.t, "theta1_deg": np.degrees(rec.theta[:, 0]), "theta2_deg": np.degrees(rec.theta[:, 1]),
-               "load1": rec.loads[:, 0], "load2": rec.loads[:, 1], "load1_t_s": rec.load_t[:, 0],
-               "load2_t_s": rec.load_t[:, 1]})  # fmt: skip
+    columns = multirate_columns(rec, force=None)
+    with numeric_table_writer(path, tuple(columns), missing="") as write:
+        write(columns)
 
 
 def test_a_file_and_a_live_stream_give_the_same_bytes(rig, tmp_path):

@@ -164,7 +164,7 @@ def _multirate_vectors(outdir: Path) -> None:
     from sailforce.estimate.multirate import MultiRateEstimator
     from sailforce.export_c import calibration_header
     from sailforce.motion.differentiate import derivatives
-    from sailforce.motion.multirate import record_holds, record_multirate
+    from sailforce.motion.multirate import multirate_columns, record_holds, record_multirate
     from sailforce.synthetic import NoiseModel, session_offsets
 
     robot = Robot(handle=Handle(mass=1.0), plane=Plane(tilt_deg=3.0))
@@ -174,13 +174,8 @@ def _multirate_vectors(outdir: Path) -> None:
     holds = record_holds(robot, adc, t1, t2, fx, fy, hold_s=0.5, offsets=offsets, seed=1)
     free = record_multirate(robot, adc, reaches=16, offsets=offsets, seed=3)
 
-    def columns(r, names):
-        return {"t_s": r.t, "theta1_deg": np.degrees(r.theta[:, 0]), "theta2_deg": np.degrees(r.theta[:, 1]),
-                "load1": r.loads[:, 0], "load2": r.loads[:, 1], "load1_t_s": r.load_t[:, 0], "load2_t_s": r.load_t[:, 1],
-                names[0]: r.force[:, 0], names[1]: r.force[:, 1]}  # fmt: skip
-
-    cal = calibrate(columns(holds, ("fx_N", "fy_N")), robot=robot, model="matrix", adc=adc,
-                    free_motion=columns(free, ("true_fx_N", "true_fy_N")))  # fmt: skip
+    cal = calibrate(multirate_columns(holds, ("fx_N", "fy_N")), robot=robot, model="matrix", adc=adc,
+                    free_motion=multirate_columns(free))  # fmt: skip
     (outdir / "cal_multirate.h").write_text(calibration_header(cal, "sail_cal_multirate", sample_rate_hz=MOTION_RATE_HZ))
     task = record_multirate(robot, adc, reaches=4, hand_stiffness=100.0, offsets=offsets, seed=7)
     t, q, loads, ready = task.t.copy(), task.theta.copy(), task.loads.copy(), task.load_t.copy()

@@ -13,7 +13,7 @@ from ..adc import PRESETS
 from ..adc.conversions import MIN_PLANT_RATE_HZ
 from ..io.files import check_output, check_sidecar, numeric_table_writer, table_format, write_json
 from ..motion.dynamics import base_parameters, inertial_parameters, parameter_vector
-from ..motion.multirate import HOLD_S, record_holds, record_multirate
+from ..motion.multirate import HOLD_S, multirate_columns, record_holds, record_multirate
 from ..motion.reaching import reaching, record
 from ..synthetic import NoiseModel, calibration_session, session_offsets
 from . import cli
@@ -105,9 +105,7 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
         holds = record_holds(robot, adc, t1, t2, fx, fy, hold_s=hold_s, control_rate_hz=rate, noise=noise,
                              counts_per_rev=1 << encoder_bits, seed=seed, offsets=offsets)  # fmt: skip
         with numeric_table_writer(output, MULTIRATE_STATIC_COLUMNS, missing="") as write:
-            write({"t_s": holds.t, "theta1_deg": np.degrees(holds.theta[:, 0]), "theta2_deg": np.degrees(holds.theta[:, 1]),
-                   "load1": holds.loads[:, 0], "load2": holds.loads[:, 1], "load1_t_s": holds.load_t[:, 0],
-                   "load2_t_s": holds.load_t[:, 1], "fx_N": holds.force[:, 0], "fy_N": holds.force[:, 1]})  # fmt: skip
+            write(multirate_columns(holds, ("fx_N", "fy_N")))
         truth |= {"clocks_Hz": [c.clock.rate_Hz for c in holds.cells], "holds": int(t1.size), "hold_s": hold_s}
         rows = holds.t.size
     elif session == "static":
@@ -136,9 +134,7 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
                                      seed=seed, offsets=offsets)  # fmt: skip
             motion = multi.motion
             with numeric_table_writer(output, MULTIRATE_MOTION_COLUMNS, missing="") as write:
-                write({"t_s": multi.t, "theta1_deg": np.degrees(multi.theta[:, 0]), "theta2_deg": np.degrees(multi.theta[:, 1]),
-                       "load1": multi.loads[:, 0], "load2": multi.loads[:, 1], "load1_t_s": multi.load_t[:, 0],
-                       "load2_t_s": multi.load_t[:, 1], "true_fx_N": multi.force[:, 0], "true_fy_N": multi.force[:, 1]})  # fmt: skip
+                write(multirate_columns(multi))
             truth |= {"clocks_Hz": [c.clock.rate_Hz for c in multi.cells], "plant_rate_Hz": _plant_rate(rate),
                       "conversions_overwritten": [c.overwritten for c in multi.cells]}  # fmt: skip
             rec = multi

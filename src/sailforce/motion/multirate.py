@@ -58,6 +58,18 @@ class MultiRateRecording:
     adc: ADC
 
 
+def multirate_columns(recording: MultiRateRecording | HoldRecording,
+                      force: tuple[str, str] | None = ("true_fx_N", "true_fy_N")) -> dict[str, np.ndarray]:
+    """A recording as the multi-rate format's columns (docs/reference/multirate.md): ``t_s``, the angles [deg], the
+    conversions and their data-ready times, and the force under the names ``force`` (None: without it)."""
+    columns = {"t_s": recording.t, "theta1_deg": np.degrees(recording.theta[:, 0]),
+               "theta2_deg": np.degrees(recording.theta[:, 1]), "load1": recording.loads[:, 0],
+               "load2": recording.loads[:, 1], "load1_t_s": recording.load_t[:, 0], "load2_t_s": recording.load_t[:, 1]}  # fmt: skip
+    if force is not None:
+        columns |= {force[0]: recording.force[:, 0], force[1]: recording.force[:, 1]}
+    return columns
+
+
 def noise_counts(robot: Robot, adc: ADC, noise: NoiseModel) -> float:
     """The 1-sigma noise of one conversion [counts]: the cell's (:class:`NoiseModel`) and the ADC's, in quadrature."""
     rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
