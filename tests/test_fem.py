@@ -335,3 +335,21 @@ def test_the_block_compliance_is_the_solid_blocks_own_bending_stiffness():
     cell = replace(LoadCell(), compliance="block")
     assert cell.bending_rigidity == pytest.approx(cell.material.E * cell.block.thickness * cell.block.depth**3 / 12)
     assert cell.bending_rigidity > 10 * LoadCell().bending_rigidity  # the hollowed cell is far softer than its block
+
+
+@pytest.mark.parametrize("joints", ["bonded", "pin", "spring"])
+def test_the_stiffness_basis_is_each_members_block_added_in_turn(joints):
+    """The basis assembled in one np.add.at is, bit for bit, each member's rotated block added at its DOFs in turn."""
+    from sailforce.fem.frame import _MONOMIALS, _element_basis, member_basis
+
+    frame = build_model(Robot().with_joints(joints)).frame
+    blocks = member_basis(frame.local_k)
+    expected = np.zeros((_MONOMIALS * frame.n_axes + 1, frame.n_dofs, frame.n_dofs))
+    for e, dofs in enumerate(frame.element_dofs):
+        for m in range(_MONOMIALS + 1):
+            row = _MONOMIALS * frame.element_axis[e] + m if m < _MONOMIALS else -1
+            for i, a in enumerate(dofs):
+                for j, b in enumerate(dofs):
+                    expected[row, a, b] += blocks[e, m, i, j]
+    got = _element_basis(frame.n_dofs, frame.n_axes, frame.element_dofs, frame.element_axis, frame.local_k)
+    np.testing.assert_array_equal(got, expected)
