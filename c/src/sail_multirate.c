@@ -7,6 +7,8 @@
  * conversion: the chip's measured period, the filter's weights over the ticks in its window, and the averaged row
  * of M and d.  Per tick that has a conversion: the solve at force_t.
  */
+#include <string.h>
+
 #include "sail.h"
 #include "sail_rates.h"
 #include "sail_static.h"
@@ -104,15 +106,10 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     state->tick_gap = (sail_real)(SAIL_GAP_STEPS * adc->tick);
     state->ticks = 0;
     state->newest = SAIL_MAX_TICKS - 1;
-    for (i = 0; i < 2; i++) {
-        sail_adc_cell *cell = &state->cell[i];
-        cell->count = 0;
-        cell->newest = SAIL_HISTORY - 1;
-        cell->intervals = 0;
-        cell->next_interval = 0;
-        cell->last_ready = 0;
-        cell->converted = 0;
-    }
+    memset(state->tick, 0, sizeof state->tick);  /* every slot a defined value: the epoch's moves shift them all */
+    memset(state->cell, 0, sizeof state->cell);
+    for (i = 0; i < 2; i++)
+        state->cell[i].newest = SAIL_HISTORY - 1;
     state->current.fx = state->current.fy = SAIL_NAN;
     state->current.status = SAIL_MOTION_UNKNOWN;
     state->current.inertial[0] = state->current.inertial[1] = dyn != NULL ? SAIL_NAN : 0;
