@@ -37,14 +37,9 @@ from sailforce.adc import ADC, PRESETS
 from sailforce.estimate import MultiRateEstimator, held_loads
 from sailforce.fit import fit_dynamic_term
 from sailforce.motion import derivatives, reaching, record, record_holds, record_multirate
+from sailforce.motion.multirate import multirate_columns
 
 ROBOT = Robot(handle=Handle(mass=1.0), plane=Plane(tilt_deg=3.0))
-
-
-def _columns(r, force, names):
-    return {"t_s": r.t, "theta1_deg": np.degrees(r.theta[:, 0]), "theta2_deg": np.degrees(r.theta[:, 1]), "load1": r.loads[:, 0],
-            "load2": r.loads[:, 1], "load1_t_s": r.load_t[:, 0], "load2_t_s": r.load_t[:, 1], names[0]: force[:, 0],
-            names[1]: force[:, 1]}  # fmt: skip
 
 
 def accuracy(adc: ADC, offsets) -> dict:
@@ -53,8 +48,8 @@ def accuracy(adc: ADC, offsets) -> dict:
     holds = record_holds(ROBOT, adc, t1, t2, fx, fy, hold_s=1.0, offsets=offsets, seed=1)
     free = record_multirate(ROBOT, adc, reaches=16, offsets=offsets, seed=3)
     try:
-        cal = calibrate(_columns(holds, holds.force, ("fx_N", "fy_N")), robot=ROBOT, model="matrix", adc=adc,
-                        free_motion=_columns(free, free.force, ("true_fx_N", "true_fy_N")))  # fmt: skip
+        cal = calibrate(multirate_columns(holds, ("fx_N", "fy_N")), robot=ROBOT, model="matrix", adc=adc,
+                        free_motion=multirate_columns(free))  # fmt: skip
     except MotionDataError as exc:
         return {"refused": str(exc).split(":")[0]}
     task = record_multirate(ROBOT, adc, reaches=8, hand_stiffness=100.0, offsets=offsets, seed=7)
