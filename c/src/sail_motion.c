@@ -80,12 +80,8 @@ enum sail_check sail_motion_init(sail_motion_state *state, const sail_dynamics *
 static void emit(sail_motion_state *state, const sail_calibration *cal, int known, sail_force *out,
                  sail_real inertial[2], sail_reading *held)
 {
-    int oldest = state->rates.slot - state->pending;
-    const sail_reading *r;
+    const sail_reading *r = &state->held[sail_rates_oldest(&state->rates, state->pending)];
     sail_real rates[4] = {0, 0, 0, 0};
-    if (oldest < 0)
-        oldest += state->rates.width;
-    r = &state->held[oldest];
     state->pending--;
     if (held)
         *held = *r;

@@ -485,9 +485,7 @@ int sail_multirate_step(sail_multirate_state *state, const sail_tick *in, sail_t
         sail_rates_push(&state->rates, x1, x2);
         if (++state->pending <= state->dyn->half)
             return 0;
-        oldest = state->rates.slot - state->pending;
-        if (oldest < 0)
-            oldest += state->rates.width;
+        oldest = sail_rates_oldest(&state->rates, state->pending);
         state->pending--;
         if (whole)
             sail_rates_read(&state->rates, rates);
@@ -505,9 +503,7 @@ int sail_multirate_flush(sail_multirate_state *state, sail_timed_force *out, sai
     if (state->dyn == NULL || state->pending <= 0)
         return 0;
     rates[0] = rates[1] = rates[2] = rates[3] = 0;
-    oldest = state->rates.slot - state->pending;
-    if (oldest < 0)
-        oldest += state->rates.width;
+    oldest = sail_rates_oldest(&state->rates, state->pending);
     state->pending--;
     if (held)
         *held = state->held[oldest];

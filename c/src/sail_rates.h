@@ -101,6 +101,13 @@ static SAIL_ALWAYS_INLINE int sail_rates_link(sail_rate_filter *f, int valid, in
     return f->run == f->width;
 }
 
+/* The ring slot of the oldest of `pending` samples held (the next to come out of the delay line). */
+static SAIL_ALWAYS_INLINE int sail_rates_oldest(const sail_rate_filter *f, int32_t pending)
+{
+    const int oldest = f->slot - pending;
+    return oldest < 0 ? oldest + f->width : oldest;
+}
+
 /* Set up the filter for dyn's kernels (checked by the caller, with sail_rates_check). */
 void sail_rates_init(sail_rate_filter *f, const sail_dynamics *dyn);
 /* Whether dyn's kernels are derivatives (they sum to zero over the window): SAIL_CHECK_OK or SAIL_CHECK_DYNAMICS. */
