@@ -36,8 +36,7 @@ from sailforce import (
 from sailforce.adc import ADC, PRESETS
 from sailforce.estimate import MultiRateEstimator, held_loads
 from sailforce.fit import fit_dynamic_term
-from sailforce.motion import derivatives, reaching, record, record_holds, record_multirate
-from sailforce.motion.multirate import multirate_columns
+from sailforce.motion import derivatives, multirate_columns, reaching, record, record_holds, record_multirate
 
 ROBOT = Robot(handle=Handle(mass=1.0), plane=Plane(tilt_deg=3.0))
 

@@ -10,7 +10,7 @@
 from .._lazy import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
-    "multirate": ("HoldRecording", "MultiRateRecording", "hand_anchor", "record_holds", "record_multirate"),
+    "multirate": ("HoldRecording", "MultiRateRecording", "hand_anchor", "multirate_columns", "record_holds", "record_multirate"),
     "differentiate": (
         "FIT_BLOCK", "GAP_FACTOR", "MAX_JOINT_ACCEL", "MAX_JOINT_RATE", "MIN_WINDOW_MARGIN", "PROBE_STEPS", "THREADS",
         "UNIFORM_BLOCK", "UNIFORM_RTOL", "Differentiator", "RatePlan", "RateTracker", "check_period", "derivatives",
