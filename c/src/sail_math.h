@@ -105,8 +105,9 @@ static SAIL_ALWAYS_INLINE sail_real sail_int64_real(uint64_t v)
 {
 #ifdef SAIL_FIXED_TIME
     const uint32_t hi = (uint32_t)(v >> 32), lo = (uint32_t)v;
-    const float high = hi >> 31 ? -(float)(~hi) - 1.0f : (float)hi;
-    return high * 4294967296.0f + (float)lo;
+    int32_t high;
+    memcpy(&high, &hi, sizeof high);  /* two's complement (C99 7.18.1.1): the signed high half */
+    return (float)high * 4294967296.0f + (float)lo;
 #else
     int64_t value;
     memcpy(&value, &v, sizeof value);

@@ -205,65 +205,111 @@ static sail_real measured_period(sail_adc_cell *cell, const sail_adc *adc, sail_
     return sum / (sail_real)cell->intervals;
 }
 
-/* A conversion of cell i: its window over the ticks held, and the entry it adds to the cell's history. */
-static void convert(sail_multirate_state *state, int i, sail_real raw, sail_instant ready)
+/* A conversion window's sums over the ticks inside it: of the weights, and of the weighted rows and dynamic term. */
+typedef struct {
+    sail_real late, inverse, start;    /* the window's end, 1 / period, and its start less the slack [s after epoch] */
+    sail_real total, row0, row1, dynamic;
+    int flags;                         /* every flag of the ticks taken */
+} window_sums;
+
+/* Take up to `count` (>= 1) ticks from slot `top` down (slots top - count + 1 .. top, newest first) into cell i's window
+ * sums: stops at the first tick before the window, and returns how many it took.  The weight is the spline's piece
+ * at x = (late - t) / period + 1 (pieces outside the window are zero), by Horner's rule: unrolled for the HX711's
+ * and the ADS1232's sinc^4. */
+static SAIL_OWN_CALL int window_run(const sail_multirate_state *state, int top, int count, int i, window_sums *sums)
 {
-    const sail_adc *adc = state->adc;
-    sail_adc_cell *cell = &state->cell[i];
-    const sail_real period = measured_period(cell, adc, ready);
-    const sail_real late = SECONDS(ready - state->delay_instant - state->epoch_instant), inverse = 1 / period;
-    const sail_real start = late - (sail_real)adc->sinc_order * period - (sail_real)SAIL_WINDOW_SLACK;
-    const sail_real end = late + (sail_real)SAIL_WINDOW_SLACK;
-    const int n = adc->sinc_order;
-    sail_real total = 0, row0 = 0, row1 = 0, dynamic = 0;
-    const sail_adc_tick *tick = &state->tick[state->newest], *const first = &state->tick[0];
-    const sail_adc_tick *const last = &state->tick[SAIL_MAX_TICKS - 1];
-    int left = state->ticks, inside = 0, ok, slot, bad = 0, mask = SAIL_TICK_INVALID | SAIL_TICK_UNKNOWN;
-    while (left > 0 && tick->t > end) {  /* ticks after the window's end */
-        left--;
-        tick = tick == first ? last : tick - 1;
-    }
-    /* the window's ticks, newest first: every one valid and known, and no step between two of them a gap (the
-     * newest's step after it is outside).  The weight is the spline's piece at x (pieces outside the window are
-     * zero), by Horner's rule: unrolled for the HX711's and the ADS1232's sinc^4. */
+    const sail_real late = sums->late, inverse = sums->inverse, start = sums->start;
+    const int n = state->adc->sinc_order;
+    const sail_adc_tick *const base = &state->tick[top - count + 1];
+    const sail_real(*const spline)[SAIL_MAX_SINC_ORDER] = state->spline;
+    sail_real total = sums->total, row0 = sums->row0, row1 = sums->row1, dynamic = sums->dynamic;
+    int flags = sums->flags, j;
+    j = count;  /* at least 1: a loop that tests at its end */
 #define SAIL_WINDOW_LOOP(WEIGHT)                                                           \
-    for (; left > 0; left--, tick = tick == first ? last : tick - 1) {                     \
+    do {                                                                                   \
+        const sail_adc_tick *const tick = &base[j - 1];                                    \
         const sail_real t = tick->t, x = (late - t) * inverse + 1, *v = tick->v[i];        \
         const sail_real *piece;                                                            \
         sail_real y, w;                                                                    \
         int p;                                                                             \
         if (t < start)                                                                     \
             break;                                                                         \
-        bad |= tick->flags & mask;                                                         \
-        mask = 0xff;                                                                       \
-        inside++;                                                                          \
+        flags |= tick->flags;                                                              \
         p = (int)x;  /* x + 1 >= 0: the truncation is the floor; piece 0 is before the window */ \
         y = x - (sail_real)p;                                                              \
-        piece = state->spline[p];                                                          \
+        piece = spline[p];                                                                 \
         WEIGHT;                                                                            \
         total += w;                                                                        \
         row0 += w * v[0];                                                                  \
         row1 += w * v[1];                                                                  \
         dynamic += w * v[2];                                                               \
-    }
+    } while (--j > 0);
     if (n == 4) {
         SAIL_WINDOW_LOOP(w = ((piece[0] * y + piece[1]) * y + piece[2]) * y + piece[3])
     } else {
         SAIL_WINDOW_LOOP(w = piece[0]; for (p = 1; p < n; p++) w = w * y + piece[p])
     }
 #undef SAIL_WINDOW_LOOP
+    sums->total = total;
+    sums->row0 = row0;
+    sums->row1 = row1;
+    sums->dynamic = dynamic;
+    sums->flags = flags;
+    return count - j;
+}
+
+/* A conversion of cell i: its window over the ticks held, and the entry it adds to the cell's history. */
+static void convert(sail_multirate_state *state, int i, sail_real raw, sail_instant ready)
+{
+    const sail_adc *adc = state->adc;
+    sail_adc_cell *cell = &state->cell[i];
+    const sail_real period = measured_period(cell, adc, ready);
+    const int n = adc->sinc_order;
+    window_sums sums;
+    sail_real end;
+    int left = state->ticks, top = state->newest, inside = 0, ok, slot, newest_flags = 0;
+    sums.late = SECONDS(ready - state->delay_instant - state->epoch_instant);
+    sums.inverse = 1 / period;
+    sums.start = sums.late - (sail_real)n * period - (sail_real)SAIL_WINDOW_SLACK;
+    sums.total = sums.row0 = sums.row1 = sums.dynamic = 0;
+    sums.flags = 0;
+    end = sums.late + (sail_real)SAIL_WINDOW_SLACK;
+    while (left > 0 && state->tick[top].t > end) {  /* ticks after the window's end */
+        left--;
+        top = top == 0 ? SAIL_MAX_TICKS - 1 : top - 1;
+    }
+    /* the window's ticks, newest first: every one valid and known, and no step between two of them a gap.  The
+     * newest's step after it is outside, so it is taken on its own; the rest in at most two runs, the ring's wrap
+     * between them. */
+    if (left > 0 && window_run(state, top, 1, i, &sums) == 1) {
+        newest_flags = sums.flags;
+        sums.flags = 0;
+        inside = 1;
+        left--;
+        top = top == 0 ? SAIL_MAX_TICKS - 1 : top - 1;
+        while (left > 0) {
+            const int run = left < top + 1 ? left : top + 1;
+            const int taken = window_run(state, top, run, i, &sums);
+            inside += taken;
+            left -= taken;
+            top = top - taken < 0 ? SAIL_MAX_TICKS - 1 : top - taken;
+            if (taken < run)
+                break;
+        }
+    }
     /* a tick before the window is held, and valid */
-    ok = left > 0 && !(tick->flags & SAIL_TICK_INVALID) && !bad && inside >= 2 && total > 0;
+    ok = left > 0 && !(state->tick[top].flags & SAIL_TICK_INVALID)
+         && !(newest_flags & (SAIL_TICK_INVALID | SAIL_TICK_UNKNOWN)) && !sums.flags && inside >= 2 && sums.total > 0;
     slot = cell->newest + 1 == SAIL_HISTORY ? 0 : cell->newest + 1;
     cell->newest = slot;
     cell->count += cell->count < SAIL_HISTORY;
-    cell->centroid[slot] = late - SAIL_R(0.5) * (sail_real)n * period;
+    cell->centroid[slot] = sums.late - SAIL_R(0.5) * (sail_real)n * period;
     cell->raw[slot] = raw;
     cell->known[slot] = (uint8_t)ok;
     if (ok) {
-        cell->row[slot][0] = row0 / total;
-        cell->row[slot][1] = row1 / total;
-        cell->dynamic[slot] = dynamic / total;
+        cell->row[slot][0] = sums.row0 / sums.total;
+        cell->row[slot][1] = sums.row1 / sums.total;
+        cell->dynamic[slot] = sums.dynamic / sums.total;
     } else {
         cell->row[slot][0] = cell->row[slot][1] = cell->dynamic[slot] = SAIL_NAN;
     }

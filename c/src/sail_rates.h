@@ -30,17 +30,19 @@ static SAIL_ALWAYS_INLINE int32_t sail_to_counts(sail_real theta, int *ok)
 /* Slide one angle's window by one sample: x_old (u = 0) leaves, the others move to u - 1, and x_new enters at
  * u = 2 half.  By Pascal's rule C(u - 1, k) = C(u, k) - C(u - 1, k - 1):
  *   U_0' = U_0 - x_old + x_new,   U_k' = U_k - U_{k-1}' + C(2 half + 1, k) x_new   (k >= 1),
- * in unsigned (modulo 2^64) arithmetic: exact, since every U_k fits in 64 bits. */
+ * in unsigned (modulo 2^64) arithmetic: exact, since every U_k fits in 64 bits.  C(2 half + 1, k) < 2^24, so each
+ * product is one signed 32 x 32 -> 64-bit multiplication. */
 static SAIL_OWN_CALL void sail_slide(uint64_t u[SAIL_MAX_RATE_ORDER + 1], const uint32_t entry[],
-                                          int32_t x_old, int32_t x_new)
+                                     int32_t x_old, int32_t x_new)
 {
-    const uint64_t n = (uint64_t)(int64_t)x_new;
+#define SAIL_ENTERS(k) ((uint64_t)((int64_t)(int32_t)entry[k] * x_new))
     /* in locals: the compiler cannot know that u and entry do not overlap */
-    const uint64_t u0 = u[0] - (uint64_t)(int64_t)x_old + n;
-    const uint64_t u1 = u[1] - u0 + entry[1] * n;
-    const uint64_t u2 = u[2] - u1 + entry[2] * n;
-    const uint64_t u3 = u[3] - u2 + entry[3] * n;
-    const uint64_t u4 = u[4] - u3 + entry[4] * n;
+    const uint64_t u0 = u[0] - (uint64_t)(int64_t)x_old + (uint64_t)(int64_t)x_new;
+    const uint64_t u1 = u[1] - u0 + SAIL_ENTERS(1);
+    const uint64_t u2 = u[2] - u1 + SAIL_ENTERS(2);
+    const uint64_t u3 = u[3] - u2 + SAIL_ENTERS(3);
+    const uint64_t u4 = u[4] - u3 + SAIL_ENTERS(4);
+#undef SAIL_ENTERS
     u[0] = u0;
     u[1] = u1;
     u[2] = u2;
@@ -48,22 +50,47 @@ static SAIL_OWN_CALL void sail_slide(uint64_t u[SAIL_MAX_RATE_ORDER + 1], const 
     u[4] = u4;
 }
 
+/* A projection's value as a sail_real: `low` plus 2^32 `high`, modulo 2^64 (the low halves' products summed in 64
+ * bits and the high halves' in 32). */
+static SAIL_ALWAYS_INLINE sail_real sail_projection(uint64_t low, uint32_t high)
+{
+    return sail_int64_real(low + ((uint64_t)high << 32));
+}
+
 /* One angle's rate and acceleration: the projections P_d = sum_k gram[d][k] U_k (exact integers, modulo 2^64)
  * weighted by the kernels' Gram coefficients, unrolled to SAIL_MAX_RATE_ORDER (a lower order's coefficients are
- * zero). */
+ * zero).  The coefficients' signs alternate, (-1)^(degree + k) (checked by sail_rates_check), and their magnitudes
+ * g are unsigned 32-bit.  With U_k = 2^32 h_k + l_k, modulo 2^64
+ *   P_d = sum_+ g l_k - sum_- g l_k + 2^32 (sum_+- g h_k  modulo 2^32):
+ * a 32 x 32 -> 64-bit product per low half and a 32-bit one per high half, a multiplication fewer than 64 x 32. */
 static SAIL_OWN_CALL void sail_rates_of(const sail_rate_filter *f, const uint64_t u[SAIL_MAX_RATE_ORDER + 1],
-                                             sail_real *omega, sail_real *alpha)
+                                        sail_real *omega, sail_real *alpha)
 {
-    const uint64_t u0 = u[0], u1 = u[1], u2 = u[2], u3 = u[3], u4 = u[4];
-    /* the coefficients' signs alternate, (-1)^(degree + k) (checked by sail_rates_init): their magnitudes are
-     * unsigned 32-bit, a multiplication fewer on a 32-bit core */
-#define SAIL_G(d, k) ((uint64_t)f->gram[d][k])
-    const sail_real p1 = sail_int64_real(SAIL_G(0, 1) * u1 - SAIL_G(0, 0) * u0);
-    const sail_real p2 = sail_int64_real(SAIL_G(1, 0) * u0 + SAIL_G(1, 2) * u2 - SAIL_G(1, 1) * u1);
-    const sail_real p3 = sail_int64_real(SAIL_G(2, 1) * u1 + SAIL_G(2, 3) * u3 - SAIL_G(2, 0) * u0 - SAIL_G(2, 2) * u2);
-    const sail_real p4 = sail_int64_real(SAIL_G(3, 0) * u0 + SAIL_G(3, 2) * u2 + SAIL_G(3, 4) * u4 - SAIL_G(3, 1) * u1
-                                         - SAIL_G(3, 3) * u3);
-#undef SAIL_G
+    const uint32_t(*g)[SAIL_MAX_RATE_ORDER + 1] = f->gram;
+    const uint32_t l0 = (uint32_t)u[0], l1 = (uint32_t)u[1], l2 = (uint32_t)u[2], l3 = (uint32_t)u[3];
+    const uint32_t l4 = (uint32_t)u[4];
+    const uint32_t h0 = (uint32_t)(u[0] >> 32), h1 = (uint32_t)(u[1] >> 32), h2 = (uint32_t)(u[2] >> 32);
+    const uint32_t h3 = (uint32_t)(u[3] >> 32), h4 = (uint32_t)(u[4] >> 32);
+    uint64_t plus, minus;
+    sail_real p1, p2, p3, p4;
+    plus = (uint64_t)g[0][1] * l1;
+    minus = (uint64_t)g[0][0] * l0;
+    p1 = sail_projection(plus - minus, g[0][1] * h1 - g[0][0] * h0);
+    plus = (uint64_t)g[1][0] * l0;
+    plus += (uint64_t)g[1][2] * l2;
+    minus = (uint64_t)g[1][1] * l1;
+    p2 = sail_projection(plus - minus, g[1][0] * h0 + g[1][2] * h2 - g[1][1] * h1);
+    plus = (uint64_t)g[2][1] * l1;
+    plus += (uint64_t)g[2][3] * l3;
+    minus = (uint64_t)g[2][0] * l0;
+    minus += (uint64_t)g[2][2] * l2;
+    p3 = sail_projection(plus - minus, g[2][1] * h1 + g[2][3] * h3 - g[2][0] * h0 - g[2][2] * h2);
+    plus = (uint64_t)g[3][0] * l0;
+    plus += (uint64_t)g[3][2] * l2;
+    plus += (uint64_t)g[3][4] * l4;
+    minus = (uint64_t)g[3][1] * l1;
+    minus += (uint64_t)g[3][3] * l3;
+    p4 = sail_projection(plus - minus, g[3][0] * h0 + g[3][2] * h2 + g[3][4] * h4 - g[3][1] * h1 - g[3][3] * h3);
     /* a centred window's rate kernel is odd and its acceleration kernel even (sail_rates_check): each lies on the
      * Gram polynomials of its own parity */
     *omega = f->gamma_rate[0] * p1 + f->gamma_rate[2] * p3;
