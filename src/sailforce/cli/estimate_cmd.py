@@ -12,17 +12,22 @@ from rich.console import Console
 
 from .. import kernel
 from ..calibration.file import Calibration
+from ..errors import InputError
 from ..io.files import atomic_writer, check_output, table_format
+from ..io.rosbag import BagWriter, Topics, is_bag, read_bag
 from ..io.tables import READING_COLUMNS, csv_header, input_size, is_parquet, parquet_schema
 from ..stream.pipeline import estimate_lines, stream_estimate, table_motion
 from . import cli
 from ._options import lowpass_options, make_lowpass
 from ._progress import progress_bar, skipped_note
 
+#: The columns a bag's messages need beyond the readings: each row's time, and the measured rates as velocities.
+BAG_ALSO = ("t_s", "omega1_dps", "omega2_dps")
+
 
 @cli.command("estimate")
 @click.option("--calibration", "cal_path", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Calibration JSON.")
-@click.argument("source", metavar="IN.csv", required=False, type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
+@click.argument("source", metavar="IN.csv", required=False, type=click.Path(allow_dash=True, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, allow_dash=True, path_type=Path), default=None,
               help="OUT.csv or OUT.parquet to write; '-' or absent with a live stream: stdout (live output is CSV).")
 @click.option("--serial", "serial_port", default=None, metavar="PORT",
@@ -36,10 +41,21 @@ from ._progress import progress_bar, skipped_note
 @click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
               help="Publish a live stream's force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, "
                    "status), stamped with the readings' times.")
+@click.option("--mcap-out", "mcap_out", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.mcap",
+              help="Also write a ROS 2 bag (MCAP, CDR): the wrench, joint states, loads and status of every row with a "
+                   "t_s, stamped in the input's seconds (docs/guide/ros-lsl.md).")
+@click.option("--mcap-topic", "mcap_topics", multiple=True, metavar="KIND=/NAME",
+              help="--mcap-out: rename a topic, KIND one of wrench, joints, loads, status (default /sail/wrench, "
+                   "/sail/joint_states, /sail/loads, /sail/status); repeatable.")
+@click.option("--joint-topic", default="/joint_states", show_default=True,
+              help="IN.mcap (or a rosbag2 folder): the sensor_msgs/msg/JointState topic of the angles [rad].")
+@click.option("--load-topic", default="/sail/loads", show_default=True,
+              help="IN.mcap: the std_msgs/msg/Float64MultiArray [load1, load2] topic, paired with the joint state of "
+                   "the same stamp.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
-def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, quiet, lowpass_hz, sample_rate_hz,
-                     lowpass_order):  # fmt: skip
+def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, mcap_out, mcap_topics, joint_topic,
+                     load_topic, quiet, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
     Output: each input line as it was, then fx_N, fy_N, force_N, angle_deg
@@ -49,7 +65,9 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     from a Lab Streaming Layer stream (until its outlet closes); each
     estimate is then written and flushed as its line arrives, and Ctrl-C
     ends the recording, keeping what was written.  A summary of the
-    statuses goes to stderr.  --lsl-out also publishes a live stream's
+    statuses goes to stderr.  IN.mcap (or a rosbag2 folder) reads a ROS 2
+    bag's joint states and loads (--joint-topic, --load-topic); --mcap-out
+    also writes the estimates as one.  --lsl-out also publishes a live stream's
     estimates on Lab Streaming Layer (status as its code; the stream's
     description names the codes).  It runs the numpy force kernel (SAILFORCE_KERNEL=compiled
     picks numba): numba's LLVM costs memory and nothing here is faster for it.
@@ -80,6 +98,12 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     if lsl_out is not None and not live:
         raise click.UsageError("--lsl-out publishes a live stream ('-', --serial or --lsl-in); a file has no live time")
     check_output(output, {"the input table": source, "the --calibration file": cal_path})
+    if mcap_out is not None:
+        check_output(mcap_out, {"the input table": source, "the --calibration file": cal_path, "-o": output})
+    topics = _topics(mcap_topics)
+    if source is not None and str(source) != "-" and source.is_dir() and not is_bag(source):
+        raise click.BadParameter(f"{source} is a folder, not a table (a rosbag2 folder holds metadata.yaml)",
+                                 param_hint="IN.csv")  # fmt: skip
     if output is not None and str(output) != "-":
         table_format(output, parquet=not live)
     elif not live:
@@ -89,15 +113,24 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     if sample_rate_hz is not None and not sample_rate_hz > 0:
         raise click.BadParameter(f"{sample_rate_hz:g} Hz is not a sample rate", param_hint="--sample-rate-Hz")
     dt = None if sample_rate_hz is None else 1.0 / sample_rate_hz
-    if cal.dynamics is not None and not live:
-        _warn_if_static(console, cal, source)
-    if live:
-        counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns)
-    else:
-        unit = "rows" if is_parquet(source) else "bytes"
-        with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
-            counts = stream_estimate(cal, source, output, lowpass=lowpass, dt=dt,
-                                     on_chunk=lambda rows, size: advance(size))  # fmt: skip
+    with ExitStack() as stack:
+        if not live and is_bag(source):
+            source = _bag_table(source, joint_topic, load_topic, stack, console)
+        if cal.dynamics is not None and not live:
+            _warn_if_static(console, cal, source)
+        bag = stack.enter_context(BagWriter(mcap_out, topics)) if mcap_out is not None else None
+        on_rows = None if bag is None else (lambda chunk, columns, status: bag.write(chunk.values, columns, status))
+        if live:
+            counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, on_rows)
+        else:
+            unit = "rows" if is_parquet(source) else "bytes"
+            with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
+                counts = stream_estimate(cal, source, output, lowpass=lowpass, dt=dt, on_chunk=lambda rows, size: advance(size),
+                                         on_rows=on_rows, also=BAG_ALSO if bag is not None else ())  # fmt: skip
+    if bag is not None:
+        untimed = f"; {bag.untimed:,} rows without a t_s left out" if bag.untimed else ""
+        console.print(f"wrote {mcap_out}: {bag.rows:,} rows on {bag.topics.wrench}, {bag.topics.joints}, "
+                      f"{bag.topics.loads}, {bag.topics.status}{untimed}", highlight=False, soft_wrap=True)  # fmt: skip
     total = sum(counts.values())
     if cal.dynamics is None:
         counts.pop("motion-unknown")
@@ -136,7 +169,38 @@ def _warn_if_static(console, cal, source) -> None:
                       "rates): the estimates are static, right only while the arm is at rest", highlight=False)  # fmt: skip
 
 
-def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None):
+def _topics(pairs) -> Topics:
+    """``--mcap-topic KIND=/NAME`` options as :class:`Topics`."""
+    names = {}
+    for pair in pairs:
+        kind, _, name = pair.partition("=")
+        if kind not in Topics.__dataclass_fields__ or not name:
+            raise click.BadParameter(f"{pair!r}: give KIND=/NAME with KIND one of {', '.join(Topics.__dataclass_fields__)}",
+                                     param_hint="--mcap-topic")  # fmt: skip
+        names[kind] = name
+    try:
+        return Topics(**names)
+    except InputError as exc:
+        raise click.BadParameter(str(exc), param_hint="--mcap-topic") from None
+
+
+def _bag_table(source: Path, joint_topic: str, load_topic: str, stack: ExitStack, console) -> Path:
+    """A bag's readings as a Parquet table in a temporary folder, for the file pipeline; unpaired messages reported."""
+    import tempfile
+
+    import pyarrow.parquet as pq
+
+    readings = read_bag(source, joint_topic, load_topic)
+    for topic, n in readings.unpaired.items():
+        if n:
+            console.print(f"note: {n:,} messages on {topic} have no partner of the same stamp on the other topic: "
+                          "not estimated", highlight=False)  # fmt: skip
+    folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sail-bag-")))
+    pq.write_table(readings.table, folder / "readings.parquet")
+    return folder / "readings.parquet"
+
+
+def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, on_bag=None):
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
     from ..live import sources
     from ..live.pipeline import StampedLines, rows_of
@@ -154,13 +218,18 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
                           "when its window is complete", highlight=False)  # fmt: skip
 
     stamps = StampedLines()
-    on_rows = None
+    listeners = [] if on_bag is None else [on_bag]
     if lsl_out is not None:
         from ..live.lsl import Outlet
 
         outlet = Outlet(lsl_out)
-        on_rows = lambda chunk, columns, status: outlet(rows_of(stamps, chunk, columns, status))
+        listeners.append(lambda chunk, columns, status: outlet(rows_of(stamps, chunk, columns, status)))
         console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
+
+    def on_rows(chunk, columns, status) -> None:
+        for listener in listeners:
+            listener(chunk, columns, status)
+
     with ExitStack() as stack:
         if lsl_in is not None:
             from ..live.lsl import inlet_blocks
@@ -173,4 +242,5 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
             blocks = sources.gathered(sources.stdin_lines())
         out = stack.enter_context(atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer))
         return estimate_lines(cal, stamps.lines(blocks), lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report,
-                              on_rows=on_rows)  # fmt: skip
+                              on_rows=on_rows if listeners else None,
+                              also=BAG_ALSO if on_bag is not None else ())  # fmt: skip

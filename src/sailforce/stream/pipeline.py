@@ -147,25 +147,26 @@ def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: ParquetType
 def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: ParquetTypes | None,
                   motion: MotionRows | None = None, on_rows: RowListener | None = None,
                   estimated: tuple[dict[str, np.ndarray], np.ndarray] | None = None):  # fmt: skip
-    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, and its size.
+    """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, its size, and what
+    a listener hears of it (the chunk, its columns and statuses: ``stream_estimate`` tells it in order).
 
     ``estimated`` holds the chunk's columns and statuses when they were made in order beforehand (multi-rate).
     """
     columns, status = estimated if estimated is not None else _estimate(cal, chunk.values, chunk.malformed, loads, motion)
     if on_rows is not None:
         on_rows(chunk, columns, status)
-    counts = count_statuses(status)
+    counts, size, heard = count_statuses(status), (chunk.num_rows, chunk.input_size), (chunk, columns, status)
     if parquet is not None:
         table = parquet.convert(chunk) if chunk.from_csv else chunk.table
-        return output_table(table, columns, status), counts, (chunk.num_rows, chunk.input_size)
+        return output_table(table, columns, status), counts, size, heard
     if chunk.lines is not None and not chunk.verbatim:
-        return csv_rows(chunk.lines, columns, status), counts, (chunk.num_rows, chunk.input_size)
+        return csv_rows(chunk.lines, columns, status), counts, size, heard
     # Arrow's writer: for Parquet input it formats the typed columns; for a verbatim CSV chunk, unquoted, it
     # writes the very bytes csv_rows would (tests/test_differential.py), some 25% faster.
     options = pacsv.WriteOptions(include_header=False, quoting_style="none" if chunk.verbatim else "needed")
     sink = pa.BufferOutputStream()
     pacsv.write_csv(output_table(chunk.table, columns, status), sink, options)
-    return sink.getvalue().to_pybytes(), counts, (chunk.num_rows, chunk.input_size)
+    return sink.getvalue().to_pybytes(), counts, size, heard
 
 
 def table_motion(cal: Calibration, source: object, names: list[str]) -> MotionColumns | None:
@@ -181,6 +182,8 @@ def stream_estimate(
     lowpass: LowPass | None = None,
     on_chunk: Callable[[int, int], None] | None = None,
     dt: float | None = None,
+    on_rows: RowListener | None = None,
+    also: tuple[str, ...] = (),
 ) -> dict[str, int]:
     """Estimate every row of ``source`` into ``destination`` (CSV or Parquet by extension), in constant memory.
 
@@ -190,7 +193,10 @@ def stream_estimate(
     on :data:`WORKERS` threads and written in order.  When the calibration
     has a dynamic term and the table a motion (:func:`table_motion`), it is
     subtracted; ``dt`` [s] is then the sampling period (probed from the
-    first steps when None).  Returns the count of rows per status.
+    first steps when None).  ``on_rows`` hears each chunk's numbers in order
+    (:data:`RowListener`), with the columns of ``also`` that the table has
+    among its values (``t_s`` for a bag's stamps).  Returns the count of
+    rows per status.
     """
     source, destination = Path(source), Path(destination)
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
@@ -201,12 +207,15 @@ def stream_estimate(
     stage = MotionStage(cal, motion, dt) if motion is not None else None
     multirate = _multirate(cal, source, names, motion, lowpass)
     needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
-                                 + (multirate.needed if multirate is not None else ())))  # fmt: skip
+                                 + (multirate.needed if multirate is not None else ())
+                                 + tuple(name for name in also if name in names)))  # fmt: skip
     writer = None
 
     def write(job: Future) -> None:
         nonlocal writer, counts
-        output, chunk_counts, (rows, size) = job.result()
+        output, chunk_counts, (rows, size), heard = job.result()
+        if on_rows is not None:
+            on_rows(*heard)
         if parquet is not None:
             writer = writer or pq.ParquetWriter(stream, output.schema)
             writer.write_table(output)
@@ -254,7 +263,7 @@ def stream_estimate(
 def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], ByteSink], *,
                    lowpass: LowPass | None = None, source: str = "the stream", dt: float | None = None,
                    on_motion: Callable[[MotionStage | None], None] | None = None,
-                   on_rows: RowListener | None = None) -> dict[str, int]:  # fmt: skip
+                   on_rows: RowListener | None = None, also: tuple[str, ...] = ()) -> dict[str, int]:  # fmt: skip
     """Live stream: a header line, then one reading per line; each estimate is written and flushed at once.
 
     ``lines`` are raw lines (bytes, line end included).  ``open_output`` is
@@ -268,7 +277,8 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     ``on_motion`` receives the motion stage once the header is read (None
     when the stream gives no motion), to report its delay.  ``on_rows``
     receives each chunk's numbers as it is written (:data:`RowListener`):
-    live displays and Lab Streaming Layer outlets read them there.  A sink
+    live displays and Lab Streaming Layer outlets read them there, with the
+    columns of ``also`` the stream has among the values.  A sink
     whose ``discarding`` attribute is true gets no bytes while it is (the
     rows are not formatted).
     """
@@ -282,7 +292,8 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     stage = MotionStage(cal, motion, dt) if motion is not None else None
     multirate = _multirate(cal, source, header.names, motion, lowpass)
     needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
-                                 + (multirate.needed if multirate is not None else ())))  # fmt: skip
+                                 + (multirate.needed if multirate is not None else ())
+                                 + tuple(name for name in also if name in header.names)))  # fmt: skip
     out = open_output()
     out.write(header.line + output_header(output_columns(motion is not None, multirate is not None)))
     out.flush()
@@ -299,7 +310,7 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
                 on_rows(chunk, columns, status)
             counts += count_statuses(status)
             return
-        output, chunk_counts, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows, estimated)
+        output, chunk_counts, _, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows, estimated)
         out.write(output)
         out.flush()
         counts += chunk_counts

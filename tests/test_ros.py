@@ -1,0 +1,168 @@
+"""ROS 2 bags (sailforce.io.rosbag): MCAP written by mcap-ros2, read back by an independent reader (rosbags, with its
+own copies of the message definitions), and bags as input."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+from click.testing import CliRunner
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
+
+from sailforce.cli import cli
+from sailforce.io.rosbag import FRAME_ID, NS_PER_S, read_bag
+from sailforce.status import STATUS_NAMES
+
+POSE = (80.0, 10.0)
+SINGULAR = (30.0, 30.0)
+#: rosbags' own definitions of the standard messages (Humble): not the text the writer stored
+TYPES = get_typestore(Stores.ROS2_HUMBLE)
+#: A stamp's rounding to whole nanoseconds [s]
+STAMP_TOL = 0.6e-9
+
+
+def run(*args, input=None):
+    return CliRunner().invoke(cli, [str(a) for a in args], input=input, catch_exceptions=False)
+
+
+def _mixed(path, offsets):
+    """Rows of every status with their times, and one whose t_s is not a number."""
+    o1, o2 = int(offsets[0]), int(offsets[1])
+    rows = [(0.000, *POSE, o1 + 90000, o2 - 40000), (0.001, *SINGULAR, 0, 0), (0.002, *POSE, "1e9", 0),
+            (0.003, 175, 0, o1, o2), (0.004, *POSE, "abc", 0), ("late", *POSE, o1 + 10, o2 - 10)]  # fmt: skip
+    rows += [(0.006 + 0.001 * i, *POSE, o1 + 1000 * i, o2 - 500 * i) for i in range(40)]
+    path.write_text("t_s,theta1_deg,theta2_deg,load1,load2\n" + "".join(",".join(map(str, r)) + "\n" for r in rows))
+    return path
+
+
+def _bag(path):
+    """topic -> [(log time [ns], message)] by rosbags, deserialised with its own definitions."""
+    out: dict[str, list] = {}
+    with Reader(path) as reader:
+        for connection, stamp, raw in reader.messages():
+            out.setdefault(connection.topic, []).append((stamp, TYPES.deserialize_cdr(raw, connection.msgtype)))
+        types = {c.topic: c.msgtype for c in reader.connections}
+    return out, types
+
+
+def _number(text):
+    return float(text) if text not in ("",) else math.nan
+
+
+def _same(a, b):
+    return (math.isnan(a) and math.isnan(b)) or a == b
+
+
+def test_mcap_out_is_a_rosbag2_bag_whose_messages_equal_the_csv(cals, tmp_path):
+    """Every timed row is one message on each topic; rosbags reads them, and they say what the CSV says."""
+    d, static, _ = cals
+    source = _mixed(tmp_path / "in.csv", static.offsets)
+    result = run("estimate", source, "--calibration", d / "static.json", "-o", tmp_path / "out.csv",
+                 "--mcap-out", tmp_path / "out.mcap")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "1 rows without a t_s left out" in result.output
+    rows = [r for r in csv.DictReader(open(tmp_path / "out.csv")) if r["t_s"] != "late"]
+    messages, types = _bag(tmp_path / "out.mcap")
+    assert types == {"/sail/wrench": "geometry_msgs/msg/WrenchStamped", "/sail/joint_states": "sensor_msgs/msg/JointState",
+                     "/sail/loads": "std_msgs/msg/Float64MultiArray", "/sail/status": "std_msgs/msg/UInt8"}  # fmt: skip
+    assert {topic: len(m) for topic, m in messages.items()} == dict.fromkeys(types, len(rows))
+    for row, (t, wrench), (_, joints), (_, loads), (_, status) in zip(rows, *(messages[k] for k in types)):
+        t_s = float(row["t_s"])
+        assert abs(t / NS_PER_S - t_s) <= STAMP_TOL
+        stamp = wrench.header.stamp.sec + wrench.header.stamp.nanosec / NS_PER_S
+        assert abs(stamp - t_s) <= STAMP_TOL and wrench.header.frame_id == FRAME_ID
+        assert _same(wrench.wrench.force.x, _number(row["fx_N"])) and _same(wrench.wrench.force.y, _number(row["fy_N"]))
+        assert (wrench.wrench.force.z, wrench.wrench.torque.x, wrench.wrench.torque.y, wrench.wrench.torque.z) == (0, 0, 0, 0)
+        assert list(joints.name) == ["theta1", "theta2"]
+        assert np.allclose(joints.position, np.radians([float(row["theta1_deg"]), float(row["theta2_deg"])]), rtol=0, atol=1e-15)
+        expected_loads = [float(row[k]) if _is_number(row[k]) else math.nan for k in ("load1", "load2")]
+        assert all(_same(a, b) for a, b in zip(loads.data, expected_loads))
+        assert STATUS_NAMES[status.data] == row["status"]
+    assert {STATUS_NAMES[s.data] for _, s in messages["/sail/status"]} >= {"ok", "singular", "saturated", "invalid"}
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def test_status_codes_are_in_the_bags_metadata(cals, tmp_path):
+    d, static, _ = cals
+    source = _mixed(tmp_path / "in.csv", static.offsets)
+    assert run("estimate", source, "--calibration", d / "static.json", "-o", tmp_path / "out.csv",
+               "--mcap-out", tmp_path / "out.mcap").exit_code == 0  # fmt: skip
+    from mcap.reader import make_reader
+
+    with open(tmp_path / "out.mcap", "rb") as f:
+        metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert metadata["sailforce.status_codes"] == {str(i): name for i, name in enumerate(STATUS_NAMES)}
+    assert metadata["sailforce.topics"]["frame_id"] == FRAME_ID
+
+
+def test_a_bag_in_gives_the_estimates_of_its_table(cals, tmp_path):
+    """The bag written from a table, read back as input (its joint states on /joint_states), gives the same forces."""
+    d, static, _ = cals
+    source = _mixed(tmp_path / "in.csv", static.offsets)
+    assert run("estimate", source, "--calibration", d / "static.json", "-o", tmp_path / "first.csv",
+               "--mcap-out", tmp_path / "first.mcap", "--mcap-topic", "joints=/joint_states").exit_code == 0  # fmt: skip
+    readings = read_bag(tmp_path / "first.mcap")
+    assert readings.unpaired == {"/joint_states": 0, "/sail/loads": 0}
+    result = run("estimate", tmp_path / "first.mcap", "--calibration", d / "static.json", "-o", tmp_path / "again.csv")
+    assert result.exit_code == 0, result.output
+    first = [r for r in csv.DictReader(open(tmp_path / "first.csv")) if r["t_s"] != "late"]
+    again = list(csv.DictReader(open(tmp_path / "again.csv")))
+    assert len(again) == len(first)
+    for a, b in zip(first, again):
+        assert abs(float(a["t_s"]) - float(b["t_s"])) <= STAMP_TOL
+        assert a["status"] == b["status"]
+        for key in ("fx_N", "fy_N"):
+            x, y = _number(a[key]), _number(b[key])
+            assert (math.isnan(x) and math.isnan(y)) or abs(x - y) <= 1e-9 * max(1.0, abs(x))
+
+
+def test_a_live_stream_writes_the_bag_the_file_does(cals, tmp_path):
+    d, static, _ = cals
+    source = _mixed(tmp_path / "in.csv", static.offsets)
+    assert run("estimate", source, "--calibration", d / "static.json", "-o", tmp_path / "file.csv",
+               "--mcap-out", tmp_path / "file.mcap").exit_code == 0  # fmt: skip
+    live = run("estimate", "-", "--calibration", d / "static.json", "-o", tmp_path / "live.csv",
+               "--mcap-out", tmp_path / "live.mcap", input=source.read_bytes())  # fmt: skip
+    assert live.exit_code == 0, live.output
+    file_messages, _ = _bag(tmp_path / "file.mcap")
+    live_messages, _ = _bag(tmp_path / "live.mcap")
+    assert file_messages.keys() == live_messages.keys()
+    for topic in file_messages:
+        assert [(t, repr(m)) for t, m in file_messages[topic]] == [(t, repr(m)) for t, m in live_messages[topic]]
+
+
+def test_bad_bags_and_options_get_one_line_errors(cals, tmp_path):
+    d, static, _ = cals
+    (tmp_path / "broken.mcap").write_bytes(b"\x89MCAP0\r\nnot really")
+    result = CliRunner().invoke(cli, ["estimate", str(tmp_path / "broken.mcap"), "--calibration", str(d / "static.json"),
+                                      "-o", str(tmp_path / "o.csv")])  # fmt: skip
+    assert result.exit_code != 0 and "not a readable MCAP file" in result.output
+    (tmp_path / "folder").mkdir()
+    result = CliRunner().invoke(cli, ["estimate", str(tmp_path / "folder"), "--calibration", str(d / "static.json"),
+                                      "-o", str(tmp_path / "o.csv")])  # fmt: skip
+    assert result.exit_code != 0 and "is a folder, not a table" in result.output
+    source = _mixed(tmp_path / "in.csv", static.offsets)
+    assert run("estimate", source, "--calibration", d / "static.json", "-o", tmp_path / "first.csv",
+               "--mcap-out", tmp_path / "first.mcap").exit_code == 0  # fmt: skip
+    result = CliRunner().invoke(cli, ["estimate", str(tmp_path / "first.mcap"), "--calibration", str(d / "static.json"),
+                                      "-o", str(tmp_path / "o.csv")])  # fmt: skip
+    assert result.exit_code != 0 and "no messages on /joint_states" in result.output and "/sail/joint_states" in result.output
+    result = CliRunner().invoke(cli, ["estimate", str(source), "--calibration", str(d / "static.json"), "-o",
+                                      str(tmp_path / "o.csv"), "--mcap-out", str(tmp_path / "x.mcap"),
+                                      "--mcap-topic", "wrench=no-slash"])  # fmt: skip
+    assert result.exit_code != 0 and "not a ROS topic name" in result.output
+    no_time = tmp_path / "no_time.csv"
+    no_time.write_text("theta1_deg,theta2_deg,load1,load2\n80,10,1,2\n")
+    result = CliRunner().invoke(cli, ["estimate", str(no_time), "--calibration", str(d / "static.json"), "-o",
+                                      str(tmp_path / "o.csv"), "--mcap-out", str(tmp_path / "x.mcap")])  # fmt: skip
+    assert result.exit_code != 0 and "needs a t_s column" in result.output
+    assert not (tmp_path / "x.mcap").exists() and not (tmp_path / "o.csv").exists()
