@@ -166,3 +166,28 @@ def test_bad_bags_and_options_get_one_line_errors(cals, tmp_path):
                                       str(tmp_path / "o.csv"), "--mcap-out", str(tmp_path / "x.mcap")])  # fmt: skip
     assert result.exit_code != 0 and "needs a t_s column" in result.output
     assert not (tmp_path / "x.mcap").exists() and not (tmp_path / "o.csv").exists()
+
+
+def test_the_live_pipeline_writes_a_bag_stamped_with_t_s_or_the_arrival_time(cals, tmp_path):
+    """sail live --mcap-out's listener: the rows' t_s when the stream has one, else each line's arrival time."""
+    from sailforce.io.rosbag import BagWriter
+    from sailforce.live.pipeline import LivePipeline, bag_listener
+
+    d, static, _ = cals
+    source = _mixed(tmp_path / "in.csv", static.offsets)
+    lines = source.read_bytes().splitlines(keepends=True)
+    no_time = [b",".join(line.split(b",")[1:]) for line in lines]
+    for name, body in (("timed", lines), ("untimed", no_time)):
+        blocks = iter([[(line, 1000.0 + 0.001 * i) for i, line in enumerate(body)]])
+        with BagWriter(tmp_path / f"{name}.mcap") as bag:
+            pipeline = LivePipeline(static, blocks, also=("t_s",))
+            pipeline.listen(bag_listener(bag))
+            pipeline.start()
+            assert pipeline.ended.wait(30) and pipeline.error is None
+        messages, _ = _bag(tmp_path / f"{name}.mcap")
+        stamps = [t / NS_PER_S for t, _ in messages["/sail/status"]]
+        if name == "timed":
+            expected = [float(line.split(b",")[0]) for line in lines[1:] if line.split(b",")[0] != b"late"]
+        else:
+            expected = [1000.0 + 0.001 * i for i in range(1, len(lines))]
+        assert np.allclose(stamps, expected, rtol=0, atol=1e-6 if name == "untimed" else STAMP_TOL)

@@ -119,10 +119,10 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
         if cal.dynamics is not None and not live:
             _warn_if_static(console, cal, source)
         bag = stack.enter_context(BagWriter(mcap_out, topics)) if mcap_out is not None else None
-        on_rows = None if bag is None else (lambda chunk, columns, status: bag.write(chunk.values, columns, status))
         if live:
-            counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, on_rows)
+            counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, bag)
         else:
+            on_rows = None if bag is None else (lambda chunk, columns, status: bag.write(chunk.values, columns, status))
             unit = "rows" if is_parquet(source) else "bytes"
             with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
                 counts = stream_estimate(cal, source, output, lowpass=lowpass, dt=dt, on_chunk=lambda rows, size: advance(size),
@@ -200,10 +200,10 @@ def _bag_table(source: Path, joint_topic: str, load_topic: str, stack: ExitStack
     return folder / "readings.parquet"
 
 
-def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, on_bag=None):
+def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, bag=None):
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
     from ..live import sources
-    from ..live.pipeline import StampedLines, rows_of
+    from ..live.pipeline import StampedLines, bag_listener, rows_of
 
     to_file = output is not None and str(output) != "-"
     name = f"serial port {serial_port}" if serial_port is not None else f"LSL stream {lsl_in}" if lsl_in else "stdin"
@@ -218,17 +218,17 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
                           "when its window is complete", highlight=False)  # fmt: skip
 
     stamps = StampedLines()
-    listeners = [] if on_bag is None else [on_bag]
+    listeners = [] if bag is None else [bag_listener(bag)]
     if lsl_out is not None:
         from ..live.lsl import Outlet
 
-        outlet = Outlet(lsl_out)
-        listeners.append(lambda chunk, columns, status: outlet(rows_of(stamps, chunk, columns, status)))
+        listeners.append(Outlet(lsl_out))
         console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
 
     def on_rows(chunk, columns, status) -> None:
+        rows = rows_of(stamps, chunk, columns, status)  # once: it takes the rows' stamps
         for listener in listeners:
-            listener(chunk, columns, status)
+            listener(rows)
 
     with ExitStack() as stack:
         if lsl_in is not None:
@@ -243,4 +243,4 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
         out = stack.enter_context(atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer))
         return estimate_lines(cal, stamps.lines(blocks), lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report,
                               on_rows=on_rows if listeners else None,
-                              also=BAG_ALSO if on_bag is not None else ())  # fmt: skip
+                              also=BAG_ALSO if bag is not None else ())  # fmt: skip

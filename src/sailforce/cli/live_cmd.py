@@ -39,6 +39,9 @@ MIN_TOKEN_CHARS = 16
               help="Read the readings from the Lab Streaming Layer stream NAME (theta1_deg, theta2_deg, load1, load2[, t_s]).")
 @click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
               help="Also publish the force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, status).")
+@click.option("--mcap-out", "mcap_out", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.mcap",
+              help="Also record the session as a ROS 2 bag (MCAP): wrench, joint states, loads and status of every row, "
+                   "stamped with its t_s (or, without one, its arrival time); finished when the server stops.")
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Address to serve on; 0.0.0.0 lets other machines see the page (and warns).")
 @click.option("--port", type=click.IntRange(0, 65535), default=8050, show_default=True, help="Port (0: any free one).")
@@ -53,8 +56,9 @@ MIN_TOKEN_CHARS = 16
 @click.option("-v", "--verbose", is_flag=True,
               help="Also log pages connecting and commands carried out (refused and malformed messages always are).")
 @lowpass_options
-def live_command(cal_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in, lsl_out, host, port,
-                 allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
+def live_command(cal_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in, lsl_out, mcap_out,
+                 host, port, allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz,
+                 lowpass_order):  # fmt: skip
     """Serve a live page of the arm and its force at http://127.0.0.1:8050/.
 
     \b
@@ -118,7 +122,20 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
     with ExitStack() as stack:
         blocks, label = _source(stack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, sample_rate_hz,
                                 cal.arm, columns, console)  # fmt: skip
-        pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt)
+        bag = None
+        if mcap_out is not None:
+            from ..io.files import check_output
+            from ..io.rosbag import BagWriter
+            from ..live.pipeline import bag_listener
+
+            check_output(mcap_out, {"the --calibration file": cal_path, "the replayed file": source})
+            bag = stack.enter_context(BagWriter(mcap_out))
+        pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt,
+                                also=("t_s", "omega1_dps", "omega2_dps") if bag is not None else ())  # fmt: skip
+        if bag is not None:
+            pipeline.listen(bag_listener(bag))
+            stack.callback(lambda: console.print(f"wrote {mcap_out}: {bag.rows:,} rows", highlight=False))
+            stack.callback(pipeline.stop)  # the rows stop before the bag closes (callbacks run in reverse)
         server = LiveServer(pipeline, record_dir=record_dir, record_format=record_format, calibration_path=cal_path, hosts=hosts,
                             **({"token": token} if token else {}))  # fmt: skip
         if lsl_out is not None:

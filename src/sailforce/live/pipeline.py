@@ -107,6 +107,17 @@ class StampedLines:
             yield from self.feed(block)
 
 
+def bag_listener(bag) -> Listener:
+    """A listener writing each block into ``bag`` (:class:`sailforce.io.rosbag.BagWriter`), stamped with the rows'
+    ``t_s``, or, for a stream without one, with their arrival time (the wall clock)."""
+
+    def write(rows: Rows) -> None:
+        values = rows.values if "t_s" in rows.values else {**rows.values, "t_s": rows.stamps}
+        bag.write(values, rows.columns, rows.status)
+
+    return write
+
+
 def rows_of(stamps: StampedLines, chunk: Chunk, columns: dict[str, np.ndarray], status: np.ndarray) -> Rows:
     return Rows(stamps.take(chunk.num_rows), chunk.values, columns, status)
 
@@ -150,8 +161,9 @@ class LivePipeline:
     """
 
     def __init__(self, cal: Calibration, blocks: Iterator[Block], *, source: str = "the stream",
-                 lowpass: LowPass | None = None, dt: float | None = None) -> None:  # fmt: skip
+                 lowpass: LowPass | None = None, dt: float | None = None, also: tuple[str, ...] = ()) -> None:  # fmt: skip
         self._cal = cal
+        self._also = also  # columns the listeners want among the values, when the stream has them
         self._next_cal: Calibration | None = None
         self._blocks = blocks
         self.source = source
@@ -278,7 +290,7 @@ class LivePipeline:
                 before, self._restarting = self.rows, False
                 try:
                     estimate_lines(cal, self._lines(), lambda: self.output, lowpass=self._lowpass, source=self.source,
-                                   dt=self._dt, on_rows=self._on_rows)  # fmt: skip
+                                   dt=self._dt, on_rows=self._on_rows, also=self._also)  # fmt: skip
                 except TableError:
                     if self.rows == before and self._restarting:
                         continue  # a new calibration came before any row of this run
