@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import csv
 import math
+import struct
+from pathlib import Path
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
@@ -191,3 +194,103 @@ def test_the_live_pipeline_writes_a_bag_stamped_with_t_s_or_the_arrival_time(cal
         else:
             expected = [1000.0 + 0.001 * i for i in range(1, len(lines))]
         assert np.allclose(stamps, expected, rtol=0, atol=1e-6 if name == "untimed" else STAMP_TOL)
+
+
+# -- XDF ------------------------------------------------------------------------------------------------
+MINIMAL_XDF = Path(__file__).parent / "data" / "xdf" / "minimal.xdf"
+
+
+def _chunk(tag: int, content: bytes) -> bytes:
+    """An XDF chunk (the XDF specification, "Chunk"): a 4-byte length of tag + content, the tag, the content."""
+    return bytes([4]) + struct.pack("<IH", len(content) + 2, tag) + content
+
+
+def _write_xdf(path, name, labels, samples, stamps):
+    """A one-stream XDF file built from the specification's chunk layout (FileHeader, StreamHeader, Samples with
+    stamps, StreamFooter): independent of sailforce's reader, read by pyxdf."""
+    channels = "".join(f"<channel><label>{label}</label></channel>" for label in labels)
+    header = (f"<?xml version='1.0'?><info><name>{name}</name><type>Readings</type><channel_count>{len(labels)}"
+              f"</channel_count><nominal_srate>1000</nominal_srate><channel_format>double64</channel_format>"
+              f"<desc><channels>{channels}</channels></desc></info>").encode()  # fmt: skip
+    body = b"".join(bytes([8]) + struct.pack("<d", t) + struct.pack(f"<{len(labels)}d", *row) for t, row in zip(stamps, samples))
+    footer = (f"<?xml version='1.0'?><info><first_timestamp>{stamps[0]}</first_timestamp><last_timestamp>{stamps[-1]}"
+              f"</last_timestamp><sample_count>{len(stamps)}</sample_count></info>").encode()  # fmt: skip
+    stream = struct.pack("<I", 7)
+    path.write_bytes(b"XDF:" + _chunk(1, b"<?xml version='1.0'?><info><version>1.0</version></info>")
+                     + _chunk(2, stream + header) + _chunk(3, stream + bytes([4]) + struct.pack("<I", len(stamps)) + body)
+                     + _chunk(6, stream + footer))  # fmt: skip
+    return path
+
+
+def test_an_xdf_stream_of_readings_estimates_as_its_table(cals, tmp_path):
+    """Labelled channels are the columns (fx_N passes through), t_s is pyxdf's stamp, and the forces are the CSV's."""
+    d, static, _ = cals
+    o1, o2 = static.offsets
+    stamps = 5000.0 + 0.001 * np.arange(30)
+    samples = [(80.0, 10.0, o1 + 1000.0 * i, o2 - 500.0 * i, 0.5 * i) for i in range(30)]
+    labels = ("theta1_deg", "theta2_deg", "load1", "load2", "fx_N")
+    _write_xdf(tmp_path / "rec.xdf", "sail readings", labels, samples, stamps)
+    table = tmp_path / "rec.csv"
+    table.write_text("t_s," + ",".join(labels) + "\n" + "".join(f"{float(t)!r}," + ",".join(repr(float(v)) for v in s)
+                                                              + "\n" for t, s in zip(stamps, samples)))  # fmt: skip
+    xdf = run("estimate", tmp_path / "rec.xdf", "--stream", "sail readings", "--calibration", d / "static.json",
+              "-o", tmp_path / "from_xdf.csv")  # fmt: skip
+    assert xdf.exit_code == 0, xdf.output
+    assert run("estimate", table, "--calibration", d / "static.json", "-o", tmp_path / "from_csv.csv").exit_code == 0
+    got, want = (list(csv.DictReader(open(tmp_path / f))) for f in ("from_xdf.csv", "from_csv.csv"))
+    assert len(got) == len(want) == 30
+    for a, b in zip(got, want):
+        assert abs(float(a["t_s"]) - float(b["t_s"])) <= 1e-9  # pyxdf's dejittering of a regular stream moves nothing
+        assert {k: float(a[k]) for k in labels} == {k: float(b[k]) for k in labels}
+        assert a["status"] == b["status"] and abs(float(a["fx_N"]) - float(b["fx_N"])) <= 1e-12
+
+
+def test_labrecorders_minimal_xdf_gives_pyxdfs_stamps_and_clear_refusals(tmp_path):
+    """minimal.xdf (LabRecorder's xdfwriter): its 3-channel stream is not readings, its markers are text."""
+    import pyxdf
+
+    from sailforce.errors import InputError
+    from sailforce.io.xdf import read_xdf, stream_names
+
+    assert sorted(stream_names(MINIMAL_XDF)) == ["SendDataC", "SendDataString"]
+    with pytest.raises(InputError, match="3 channels and no labels"):
+        read_xdf(MINIMAL_XDF, "SendDataC")
+    with pytest.raises(InputError, match="holds text"):
+        read_xdf(MINIMAL_XDF, "SendDataString")
+    with pytest.raises(InputError, match="no stream named 'EMG'.*'SendDataC'"):
+        read_xdf(MINIMAL_XDF, "EMG")
+    (tmp_path / "cut.xdf").write_bytes(MINIMAL_XDF.read_bytes()[:40])
+    with pytest.raises(InputError, match="not a readable XDF file|no stream named"):
+        read_xdf(tmp_path / "cut.xdf", "SendDataC")
+    # the stamps sailforce takes are pyxdf's defaults (clock offsets applied, dejittered): 5.0 .. 5.8 s here
+    streams, _ = pyxdf.load_xdf(str(MINIMAL_XDF))
+    eeg = next(s for s in streams if s["info"]["name"][0] == "SendDataC")
+    assert np.allclose(eeg["time_stamps"], 5.0 + 0.1 * np.arange(9), atol=1e-9)
+
+
+def test_estimate_asks_for_the_stream_of_an_xdf_file(cals, tmp_path):
+    d, _, _ = cals
+    result = CliRunner().invoke(cli, ["estimate", str(MINIMAL_XDF), "--calibration", str(d / "static.json"), "-o",
+                                      str(tmp_path / "o.csv")])  # fmt: skip
+    assert result.exit_code != 0 and "give both REC.xdf and --stream" in result.output
+    result = CliRunner().invoke(cli, ["estimate", str(MINIMAL_XDF), "--stream", "SendDataC", "--calibration",
+                                      str(d / "static.json"), "-o", str(tmp_path / "o.csv")])  # fmt: skip
+    assert result.exit_code != 0 and "label them theta1_deg" in result.output
+
+
+def test_calibrate_from_an_xdf_stream_is_calibrate_from_its_table(cals, tmp_path):
+    """DATA.xdf --stream: the same calibration as the CSV the stream was made from (but for the provenance: the data
+    file's hash, and the checksum over it)."""
+    import json
+
+    d, _, _ = cals
+    header, *lines = (d / "static.csv").read_text().splitlines()
+    labels = header.split(",")
+    samples = [tuple(float(v) for v in line.split(",")) for line in lines]
+    _write_xdf(tmp_path / "cal.xdf", "calibration", labels, samples, 100.0 + 0.001 * np.arange(len(samples)))
+    for name, args in (("xdf", (tmp_path / "cal.xdf", "--stream", "calibration")), ("csv", (d / "static.csv",))):
+        result = run("calibrate", *args, "--model", "matrix", "-q", "-o", tmp_path / f"{name}.json")
+        assert result.exit_code == 0, result.output
+    fields = [{k: v for k, v in json.loads((tmp_path / f"{n}.json").read_text()).items() if k not in ("created", "data_sha256", "checksum")}
+              for n in ("xdf", "csv")]  # fmt: skip
+    assert fields[0] == fields[1]

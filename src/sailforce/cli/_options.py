@@ -179,3 +179,15 @@ def file_only(ctx, param, value):
     if value is not None and str(value) == "-":
         raise click.BadParameter("'-' is not standard output here: this output is written to a file; name one")
     return value
+
+
+def readings_parquet(table, stack) -> Path:
+    """A table read from a bag or an XDF file as a Parquet file in a temporary folder that lives as long as ``stack``
+    (a :class:`contextlib.ExitStack`): the file pipeline's input."""
+    import tempfile
+
+    import pyarrow.parquet as pq
+
+    folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sail-readings-")))
+    pq.write_table(table, folder / "readings.parquet")
+    return folder / "readings.parquet"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from contextlib import ExitStack
 from pathlib import Path
 
 import click
@@ -18,9 +19,10 @@ from ..fit.calibration import MODEL_KINDS
 from ..fit.physics import DEFAULT_TRANSDUCTION
 from ..io.files import check_output
 from ..io.tables import read_clean
+from ..io.xdf import is_xdf, read_xdf
 from ..workflows import calibration_run
 from . import cli
-from ._options import file_only, load_robot, resolve_reading, robot_option
+from ._options import file_only, load_robot, readings_parquet, resolve_reading, robot_option
 from ._progress import progress_bar
 
 
@@ -62,13 +64,17 @@ def _parse_capacity(ctx, param, value):
                    "recordings (t_s, sparse loads) and stores the ADC in the calibration (docs/reference/multirate.md).")
 @click.option("--dynamics", type=click.Choice(("prior", "none")), default=None,
               help="Without --free-motion: store the robot file's predicted dynamic term, or none (the default).")
+@click.option("--stream", "xdf_stream", default=None, metavar="NAME",
+              help="DATA.xdf (a LabRecorder file): the stream of readings and reference forces, its channels labelled "
+                   "theta1_deg, theta2_deg, load1, load2, fx_N, fy_N; t_s is pyxdf's LSL time.")
 def calibrate_command(data, robot_path, output, kind, free, transduction, quiet, capacity, load_unit, free_motion, adc_name,
-                      dynamics):
+                      dynamics, xdf_stream):
     """Fit offsets and the sensing map from DATA.csv (or .parquet) with reference forces.
 
     DATA has the columns theta1_deg, theta2_deg, load1, load2 (raw readings
     in any linear unit) and fx_N, fy_N (the applied force); other columns are
-    ignored.  Record several force directions at each of several poses
+    ignored.  DATA.xdf --stream NAME reads one stream of a LabRecorder file,
+    its channels labelled with those names.  Record several force directions at each of several poses
     spanning the Δ = θ1 − θ2 range the robot will use.
 
     With --model physics (and auto, which tries it), the robot's frame model
@@ -77,6 +83,9 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     its structure is right, and cross-validation keeps auto from choosing it
     where it is not.
     """
+    if (xdf_stream is not None) != is_xdf(data):
+        raise click.UsageError("--stream NAME picks the stream of an XDF file: give both DATA.xdf and --stream"
+                               if xdf_stream is None else "--stream picks a stream of DATA.xdf: DATA is not an .xdf file")
     robot = load_robot(robot_path)
     free_keys = tuple(k.strip() for k in free.split(",") if k.strip()) if free else None
     if (free_keys or transduction) and kind not in ("physics", "auto"):
@@ -87,7 +96,11 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     console = Console()
     if kind in ("physics", "auto"):
         transduction = resolve_reading(robot, transduction, DEFAULT_TRANSDUCTION, console)
-    with progress_bar(console, "fitting the physics model", None, unit="starts", quiet=quiet or kind not in ("physics", "auto")) as advance:
+    stack = ExitStack()
+    if xdf_stream is not None:
+        data = readings_parquet(read_xdf(data, xdf_stream), stack)
+    with stack, progress_bar(console, "fitting the physics model", None, unit="starts",
+                             quiet=quiet or kind not in ("physics", "auto")) as advance:  # fmt: skip
         run = calibration_run(data, robot=robot, model=kind, free=free_keys, transduction=transduction, capacity=capacity,
                               load_unit=load_unit, free_motion=free_motion, dynamics=dynamics,
                               progress=lambda done, total: advance(1),

@@ -16,9 +16,10 @@ from ..errors import InputError
 from ..io.files import atomic_writer, check_output, table_format
 from ..io.rosbag import BagWriter, Topics, is_bag, read_bag
 from ..io.tables import READING_COLUMNS, csv_header, input_size, is_parquet, parquet_schema
+from ..io.xdf import is_xdf, read_xdf
 from ..stream.pipeline import estimate_lines, stream_estimate, table_motion
 from . import cli
-from ._options import lowpass_options, make_lowpass
+from ._options import lowpass_options, make_lowpass, readings_parquet
 from ._progress import progress_bar, skipped_note
 
 #: The columns a bag's messages need beyond the readings: each row's time, and the measured rates as velocities.
@@ -52,10 +53,13 @@ BAG_ALSO = ("t_s", "omega1_dps", "omega2_dps")
 @click.option("--load-topic", default="/sail/loads", show_default=True,
               help="IN.mcap: the std_msgs/msg/Float64MultiArray [load1, load2] topic, paired with the joint state of "
                    "the same stamp.")
+@click.option("--stream", "xdf_stream", default=None, metavar="NAME",
+              help="REC.xdf: the stream of readings (channels labelled theta1_deg, theta2_deg, load1, load2, others pass "
+                   "through); t_s is pyxdf's synchronised, dejittered LSL time.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
 def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, mcap_out, mcap_topics, joint_topic,
-                     load_topic, quiet, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
+                     load_topic, xdf_stream, quiet, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
     Output: each input line as it was, then fx_N, fy_N, force_N, angle_deg
@@ -67,7 +71,8 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     ends the recording, keeping what was written.  A summary of the
     statuses goes to stderr.  IN.mcap (or a rosbag2 folder) reads a ROS 2
     bag's joint states and loads (--joint-topic, --load-topic); --mcap-out
-    also writes the estimates as one.  --lsl-out also publishes a live stream's
+    also writes the estimates as one.  REC.xdf --stream NAME reads one
+    stream of a LabRecorder file.  --lsl-out also publishes a live stream's
     estimates on Lab Streaming Layer (status as its code; the stream's
     description names the codes).  It runs the numpy force kernel (SAILFORCE_KERNEL=compiled
     picks numba): numba's LLVM costs memory and nothing here is faster for it.
@@ -101,6 +106,9 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     if mcap_out is not None:
         check_output(mcap_out, {"the input table": source, "the --calibration file": cal_path, "-o": output})
     topics = _topics(mcap_topics)
+    if (xdf_stream is not None) != (source is not None and is_xdf(source)):
+        raise click.UsageError("--stream NAME picks the stream of an XDF file: give both REC.xdf and --stream"
+                               if xdf_stream is None else "--stream picks a stream of REC.xdf: the input is not an .xdf file")
     if source is not None and str(source) != "-" and source.is_dir() and not is_bag(source):
         raise click.BadParameter(f"{source} is a folder, not a table (a rosbag2 folder holds metadata.yaml)",
                                  param_hint="IN.csv")  # fmt: skip
@@ -116,6 +124,8 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     with ExitStack() as stack:
         if not live and is_bag(source):
             source = _bag_table(source, joint_topic, load_topic, stack, console)
+        elif not live and is_xdf(source):
+            source = readings_parquet(read_xdf(source, xdf_stream), stack)
         if cal.dynamics is not None and not live:
             _warn_if_static(console, cal, source)
         bag = stack.enter_context(BagWriter(mcap_out, topics)) if mcap_out is not None else None
@@ -186,18 +196,12 @@ def _topics(pairs) -> Topics:
 
 def _bag_table(source: Path, joint_topic: str, load_topic: str, stack: ExitStack, console) -> Path:
     """A bag's readings as a Parquet table in a temporary folder, for the file pipeline; unpaired messages reported."""
-    import tempfile
-
-    import pyarrow.parquet as pq
-
     readings = read_bag(source, joint_topic, load_topic)
     for topic, n in readings.unpaired.items():
         if n:
             console.print(f"note: {n:,} messages on {topic} have no partner of the same stamp on the other topic: "
                           "not estimated", highlight=False)  # fmt: skip
-    folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sail-bag-")))
-    pq.write_table(readings.table, folder / "readings.parquet")
-    return folder / "readings.parquet"
+    return readings_parquet(readings.table, stack)
 
 
 def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, bag=None):
