@@ -23,6 +23,7 @@ from sailforce.calibration.tare import MIN_TARE_SAMPLES
 from sailforce.cli import cli
 from sailforce.errors import SailError
 from sailforce.estimate.estimator import STATUS_NAMES
+from sailforce.live import sources
 from sailforce.live.pipeline import LivePipeline, Rows
 from sailforce.live.recorder import Recorder
 from sailforce.live.sources import SIMULATED_COLUMNS, replay, simulated_arm
@@ -359,11 +360,11 @@ def test_lsl_outlet_carries_force_status_and_reading_times():
         names.append(code.child_value("name"))
         code = code.next_sibling()
     assert names == list(STATUS_NAMES)
-    stamps = time.time() - 1.0 + 0.001 * np.arange(5)
+    stamps = sources.now() - 1.0 + 0.001 * np.arange(5)
     columns = {"fx_N": np.array([1.0, 2, np.nan, 4, 5]), "fy_N": np.arange(5.0), "force_N": np.ones(5),
                "angle_deg": np.full(5, 45.0)}  # fmt: skip
     time.sleep(0.5)
-    offset = pylsl.local_clock() - time.time()
+    offset = pylsl.local_clock() - sources.now()
     outlet(Rows(stamps, {}, columns, np.array([0, 0, 1, 0, 2])))
     samples, timestamps = [], []
     deadline = time.monotonic() + WAIT_S

@@ -19,11 +19,13 @@ from ..io.tables import READING_COLUMNS, csv_header, input_size, is_parquet, par
 from ..io.xdf import is_xdf, read_xdf
 from ..stream.pipeline import estimate_lines, stream_estimate, table_motion
 from . import cli
-from ._options import lowpass_options, make_lowpass, readings_parquet
+from ._options import FINITE, lowpass_options, make_lowpass, readings_parquet
 from ._progress import progress_bar, skipped_note
 
 #: The columns a bag's messages need beyond the readings: each row's time, and the measured rates as velocities.
 BAG_ALSO = ("t_s", "omega1_dps", "omega2_dps")
+#: The column an LSL outlet's stamps and nominal rate come from.
+LSL_ALSO = ("t_s",)
 
 
 @cli.command("estimate")
@@ -41,7 +43,10 @@ BAG_ALSO = ("t_s", "omega1_dps", "omega2_dps")
               help="Read the live stream from the Lab Streaming Layer stream NAME (theta1_deg, theta2_deg, load1, load2[, t_s]).")
 @click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
               help="Publish a live stream's force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, "
-                   "status), stamped with the readings' times.")
+                   "status), each sample stamped with its reading's own time on LSL's clock (docs/guide/live.md).")
+@click.option("--source-latency-ms", "latency_ms", type=FINITE, default=0.0, show_default=True, metavar="MS",
+              help="--lsl-out: how old each reading is when its line arrives (the device's own delay, USB buffering), "
+                   "taken off its LSL stamp; a serial line's transmission time at --baud is taken off as well.")
 @click.option("--mcap-out", "mcap_out", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.mcap",
               help="Also write a ROS 2 bag (MCAP, CDR): the wrench, joint states, loads and status of every row with a "
                    "t_s, stamped in the input's seconds (docs/guide/ros-lsl.md).")
@@ -58,8 +63,8 @@ BAG_ALSO = ("t_s", "omega1_dps", "omega2_dps")
                    "through); t_s is pyxdf's synchronised, dejittered LSL time.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
-def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, mcap_out, mcap_topics, joint_topic,
-                     load_topic, xdf_stream, quiet, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
+def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, latency_ms, mcap_out, mcap_topics,
+                     joint_topic, load_topic, xdf_stream, quiet, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
     Output: each input line as it was, then fx_N, fy_N, force_N, angle_deg
@@ -130,7 +135,8 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
             _warn_if_static(console, cal, source)
         bag = stack.enter_context(BagWriter(mcap_out, topics)) if mcap_out is not None else None
         if live:
-            counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, bag)
+            counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, bag,
+                           latency_ms / 1e3)  # fmt: skip
         else:
             on_rows = None if bag is None else (lambda chunk, columns, status: bag.write(chunk.values, columns, status))
             unit = "rows" if is_parquet(source) else "bytes"
@@ -204,7 +210,7 @@ def _bag_table(source: Path, joint_topic: str, load_topic: str, stack: ExitStack
     return readings_parquet(readings.table, stack)
 
 
-def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, bag=None):
+def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, bag=None, latency_s=0.0):
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
     from ..live import sources
     from ..live.pipeline import StampedLines, bag_listener, rows_of
@@ -223,11 +229,6 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
 
     stamps = StampedLines()
     listeners = [] if bag is None else [bag_listener(bag)]
-    if lsl_out is not None:
-        from ..live.lsl import Outlet
-
-        listeners.append(Outlet(lsl_out))
-        console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
 
     def on_rows(chunk, columns, status) -> None:
         rows = rows_of(stamps, chunk, columns, status)  # once: it takes the rows' stamps
@@ -241,10 +242,23 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
             blocks = inlet_blocks(lsl_in)
         elif serial_port is not None:
             port = stack.enter_context(sources.serial_lines(serial_port, baud))
-            blocks = sources.gathered(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name)))
+            blocks = sources.gathered(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name)),
+                                      seconds_per_byte=sources.serial_seconds_per_byte(baud))  # fmt: skip
         else:
             blocks = sources.gathered(sources.stdin_lines())
+        if lsl_out is not None:
+            listeners.append(_outlet(lsl_out, dt, latency_s, blocks))
+            console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
         out = stack.enter_context(atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer))
         return estimate_lines(cal, stamps.lines(blocks), lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report,
                               on_rows=on_rows if listeners else None,
-                              also=BAG_ALSO if bag is not None else ())  # fmt: skip
+                              also=(*BAG_ALSO, *LSL_ALSO) if bag is not None else LSL_ALSO if lsl_out else ())  # fmt: skip
+
+
+def _outlet(name: str, dt: float | None, latency_s: float, blocks):
+    """The --lsl-out outlet: its nominal rate 1 / dt when --sample-rate-Hz gives one, an inlet's own, else probed
+    from t_s; its stamps back-dated by latency_s, and an inlet's t_s taken as LSL time."""
+    from ..live.lsl import Outlet
+
+    rate = 1.0 / dt if dt is not None else getattr(blocks, "rate_hz", None)
+    return Outlet(name, rate_hz=rate, latency_s=latency_s, lsl_time=bool(getattr(blocks, "lsl_time", False)))

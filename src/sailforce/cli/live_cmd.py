@@ -39,6 +39,9 @@ MIN_TOKEN_CHARS = 16
               help="Read the readings from the Lab Streaming Layer stream NAME (theta1_deg, theta2_deg, load1, load2[, t_s]).")
 @click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
               help="Also publish the force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, status).")
+@click.option("--source-latency-ms", "latency_ms", type=FINITE, default=0.0, show_default=True, metavar="MS",
+              help="--lsl-out: how old each reading is when its line arrives (the device's own delay, USB buffering), "
+                   "taken off its LSL stamp; a serial line's transmission time at --baud is taken off as well.")
 @click.option("--mcap-out", "mcap_out", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.mcap",
               help="Also record the session as a ROS 2 bag (MCAP): wrench, joint states, loads and status of every row, "
                    "stamped with its t_s (or, without one, its arrival time); finished when the server stops.")
@@ -56,8 +59,8 @@ MIN_TOKEN_CHARS = 16
 @click.option("-v", "--verbose", is_flag=True,
               help="Also log pages connecting and commands carried out (refused and malformed messages always are).")
 @lowpass_options
-def live_command(cal_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in, lsl_out, mcap_out,
-                 host, port, allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz,
+def live_command(cal_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in, lsl_out, latency_ms,
+                 mcap_out, host, port, allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz,
                  lowpass_order):  # fmt: skip
     """Serve a live page of the arm and its force at http://127.0.0.1:8050/.
 
@@ -131,7 +134,7 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
             check_output(mcap_out, {"the --calibration file": cal_path, "the replayed file": source})
             bag = stack.enter_context(BagWriter(mcap_out))
         pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt,
-                                also=("t_s", "omega1_dps", "omega2_dps") if bag is not None else ())  # fmt: skip
+                                also=("t_s", "omega1_dps", "omega2_dps") if bag is not None else ("t_s",) if lsl_out else ())  # fmt: skip
         if bag is not None:
             pipeline.listen(bag_listener(bag))
             stack.callback(lambda: console.print(f"wrote {mcap_out}: {bag.rows:,} rows", highlight=False))
@@ -141,7 +144,9 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
         if lsl_out is not None:
             from ..live.lsl import Outlet
 
-            pipeline.listen(Outlet(lsl_out))
+            rate = 1.0 / dt if dt is not None else getattr(blocks, "rate_hz", None)
+            pipeline.listen(Outlet(lsl_out, rate_hz=rate, latency_s=latency_ms / 1e3,
+                                   lsl_time=bool(getattr(blocks, "lsl_time", False))))  # fmt: skip
             console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
         pipeline.start()
 
@@ -185,7 +190,8 @@ def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, r
 
         name = f"serial port {serial_port}"
         port = stack.enter_context(sources.serial_lines(serial_port, baud))
-        return sources.stamped(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name))), name
+        lines = sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name))
+        return sources.stamped(lines, seconds_per_byte=sources.serial_seconds_per_byte(baud)), name
     if lsl_in is not None:
         from ..live.lsl import inlet_blocks
 

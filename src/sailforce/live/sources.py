@@ -1,10 +1,12 @@
-"""Where live readings come from: blocks of raw lines, each line with the wall-clock time of its reading.
+"""Where live readings come from: blocks of raw lines, each line with the time of its reading.
 
 Every source is an iterator of blocks: lists of ``(line, stamp)``, ``line``
 the raw bytes of one CSV line (line end included), ``stamp`` the
-:func:`time.time` [s] at which the reading was taken (when it arrived, for
-a serial port or stdin; when it was due, for a replay; the sample's own
-timestamp, for a Lab Streaming Layer inlet).  The first block starts with
+:func:`now` [s] at which the reading was taken (when it arrived, less the
+line's transmission time, for a serial port; when it arrived, for stdin;
+when it was due, for a replay; the sample's own timestamp, for a Lab
+Streaming Layer inlet).  :func:`now` reads like the wall clock but never
+steps: an NTP correction during a session moves no stamp.  The first block starts with
 the header line.  A block holds the lines that arrived together, so that
 one estimate serves them all: at 1 kHz, replays come in
 :data:`REPLAY_TICK_S` ticks.
@@ -48,7 +50,17 @@ SIMULATED_HAND_STIFFNESS = 100.0
 SIMULATED_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "true_fx_N", "true_fy_N")
 
 
-def _paced(lines: Iterator[tuple[bytes, float]], speed: float, clock: Callable[[], float] = time.time) -> Iterator[Block]:
+#: The wall clock and the monotonic clock read together, once: :func:`now` is the one plus the other's advance.
+_ANCHOR = (time.time(), time.monotonic())
+
+
+def now() -> float:
+    """The time [s]: the wall clock's reading at start-up plus the monotonic clock's advance since, a clock that
+    reads like the wall clock (the live page shows it) but never steps."""
+    return _ANCHOR[0] + (time.monotonic() - _ANCHOR[1])
+
+
+def _paced(lines: Iterator[tuple[bytes, float]], speed: float, clock: Callable[[], float] = now) -> Iterator[Block]:
     """Blocks of the lines whose due time (seconds from the start, at ``speed``) has come, every tick."""
     start = clock()
     block: Block = []
@@ -224,14 +236,16 @@ def stdin_lines() -> Iterator[bytes]:
 GATHER_LINES = 4096
 
 
-def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES) -> Iterator[Block]:
+def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES, seconds_per_byte: float = 0.0) -> Iterator[Block]:
     """Blocks of every stamped line that has arrived, read on a thread of their own: a stream estimated in blocks.
 
     A stream that arrives faster than it is estimated line by line (a pipe,
     a 1 kHz port behind a dynamic term) comes in blocks of all that is
     waiting, up to ``limit`` lines; one that arrives slowly comes a line at
     a time, as :func:`stamped` gives it.  No line waits for others to come:
-    a block is what had already arrived.  Each line keeps its arrival time.
+    a block is what had already arrived.  Each line keeps its arrival time,
+    less its transmission time at ``seconds_per_byte`` (a serial port's
+    10 / baud: its first byte left the device that long before the last).
     """
     import queue
     import threading
@@ -242,7 +256,7 @@ def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES) -> Iterator[B
     def read() -> None:
         try:
             for line in lines:
-                waiting.put((line, time.time()))
+                waiting.put((line, now() - len(line) * seconds_per_byte))
         except BaseException as exc:  # the source's error ends the stream, in the reading thread
             waiting.put(exc)
         finally:
@@ -268,7 +282,13 @@ def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES) -> Iterator[B
             raise item
 
 
-def stamped(lines: Iterator[bytes]) -> Iterator[Block]:
-    """Blocks of one line each, stamped with their arrival time: for sources that block on each line."""
+def stamped(lines: Iterator[bytes], *, seconds_per_byte: float = 0.0) -> Iterator[Block]:
+    """Blocks of one line each, stamped with their arrival time (less their transmission time at
+    ``seconds_per_byte``, as :func:`gathered`): for sources that block on each line."""
     for line in lines:
-        yield [(line, time.time())]
+        yield [(line, now() - len(line) * seconds_per_byte)]
+
+
+def serial_seconds_per_byte(baud: int) -> float:
+    """A serial byte's time on the wire [s]: 10 bits (start, 8 data, stop) at ``baud``."""
+    return 10.0 / baud

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from collections import deque
 from collections.abc import Callable
 
@@ -22,6 +21,7 @@ from ..calibration.file import Calibration
 from ..estimate.estimator import STATUS_NAMES
 from ..kinematics import joint_positions
 from ..status import count_statuses
+from . import sources
 from .pipeline import Rows
 
 #: The time plots span this much of the past [s].
@@ -65,7 +65,7 @@ class LiveState:
         bins = np.floor(rows.stamps / HISTORY_STEP_S)
         first = np.flatnonzero(np.diff(bins, prepend=self._last_bin) > 0)
         fx, fy, force = rows.columns["fx_N"], rows.columns["fy_N"], rows.columns["force_N"]
-        now = time.time()
+        now = sources.now()
         with self._lock:
             self.latest = self._row(rows, -1)
             self.counts += count_statuses(rows.status)

@@ -1,0 +1,129 @@
+"""Lab Streaming Layer stamps that mean what they say (sailforce.live.lsl): the sample's own time on LSL's clock,
+back-dated by its known age, with a device's clock mapped through its drift, and no wall-clock step in them."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+import textwrap
+import time
+import uuid
+
+import numpy as np
+import pylsl
+import pytest
+
+from sailforce.live import sources
+from sailforce.live.lsl import DeviceClock, Outlet, nominal_rate
+from sailforce.live.pipeline import Rows
+
+WAIT_S = 20.0
+#: The issue's bound on a stamp's error [s]
+STAMP_TOL_S = 2e-3
+
+
+def _pull(inlet, n: int) -> tuple[np.ndarray, np.ndarray]:
+    samples, stamps = [], []
+    deadline = time.monotonic() + WAIT_S
+    while len(samples) < n and time.monotonic() < deadline:
+        try:
+            chunk, ts = inlet.pull_chunk(timeout=0.5)
+        except pylsl.util.LostError:  # the outlet has closed: the stream has ended
+            break
+        samples += chunk
+        stamps += ts
+    return np.array(samples), np.array(stamps)
+
+
+def test_a_device_clock_is_mapped_through_its_offset_and_drift():
+    """t = 1000 s + (1 + 100 ppm) true; arrivals late by 15 ms plus up to 5 ms of jitter: the mapped time less the
+    known 15 ms is the true time within 0.5 ms once a few seconds are in, and a restarted device is followed."""
+    rng = np.random.default_rng(3)
+    true = 50.0 + 0.001 * np.arange(40_000)
+    device = 1000.0 + (1 + 100e-6) * true
+    arrival = true + 0.015 + rng.exponential(1e-3, true.size).clip(max=5e-3)
+    clock = DeviceClock()
+    mapped = np.concatenate([clock.to_lsl(device[i:i + 100], arrival[i:i + 100]) for i in range(0, true.size, 100)])
+    error = mapped - 0.015 - true
+    assert np.max(np.abs(error[5000:])) <= 0.5e-3  # over 40 s the drift alone is 4 ms
+    restarted = device[:2000] - device[0]  # the device restarts: its clock from 0 again
+    later = clock.to_lsl(restarted, arrival[:2000] + 100.0)
+    assert np.max(np.abs(later[500:] - 0.015 - (true[500:2000] + 100.0))) <= 1e-3
+
+
+def test_a_regular_stream_declares_its_rate():
+    assert nominal_rate(0.002 * np.arange(64) + 0.00001 * np.sin(np.arange(64))) == pytest.approx(500.0, rel=1e-3)
+    assert nominal_rate(np.cumsum(np.random.default_rng(1).exponential(0.002, 64))) == 0.0
+    assert nominal_rate(np.arange(3.0)) == 0.0  # too few steps to tell
+
+
+def test_a_wall_clock_step_moves_no_stamp(monkeypatch):
+    """Stamps are taken on sources.now(), which never steps; an outlet's stamps stay on LSL's clock after the wall
+    clock jumps an hour."""
+    name = f"sail-step-{uuid.uuid4().hex[:8]}"
+    outlet = Outlet(name)
+    found = pylsl.resolve_byprop("name", name, 1, WAIT_S)
+    inlet = pylsl.StreamInlet(found[0])
+    inlet.open_stream(WAIT_S)
+    time.sleep(0.3)
+    columns = {"fx_N": np.ones(1), "fy_N": np.zeros(1), "force_N": np.ones(1), "angle_deg": np.zeros(1)}
+    sent = []
+    wall = time.time
+    for step in (0.0, 3600.0):
+        monkeypatch.setattr(time, "time", lambda step=step: wall() + step)
+        for _ in range(5):
+            sent.append(pylsl.local_clock())
+            outlet(Rows(np.array([sources.now()]), {}, columns, np.zeros(1, dtype=int)))
+            time.sleep(0.01)
+    _, stamps = _pull(inlet, len(sent))
+    assert stamps.size == len(sent)
+    assert np.max(np.abs(stamps - np.array(sent))) <= STAMP_TOL_S
+
+
+GENERATOR = textwrap.dedent("""
+    import sys, time
+    import pylsl
+    n, latency, period = int(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
+    out = sys.stdout
+    out.write("t_s,theta1_deg,theta2_deg,load1,load2,true_lsl\\n"); out.flush()
+    time.sleep(1.0)  # the outlet opens once the first rows are in; the test's inlet is waiting for it
+    t0 = pylsl.local_clock() + 0.2
+    for i in range(n):
+        true = t0 + i * period  # when the sample was taken, on LSL's clock
+        device = 1000.0 + (1 + 50e-6) * true  # the device's own clock: offset and drift
+        while pylsl.local_clock() < true + latency:  # it arrives `latency` later
+            time.sleep(0.0002)
+        out.write(f"{device!r},80,10,{OFFSET1 + 100 * i},{OFFSET2},{true!r}\\n"); out.flush()
+""")
+
+
+def test_estimate_lsl_out_stamps_are_the_samples_times(cals, tmp_path):
+    """A stream whose samples arrive 15 ms after they were taken, stamped on the device's drifting clock, through
+    `sail estimate - --lsl-out --source-latency-ms 15`: each LSL stamp is its sample's true time within 2 ms, and the
+    outlet declares the stream's 500 Hz."""
+    d, static, _ = cals
+    n, name = 1000, f"sail-lsl-{uuid.uuid4().hex[:8]}"
+    script = GENERATOR.replace("OFFSET1", repr(float(static.offsets[0]))).replace("OFFSET2", repr(float(static.offsets[1])))
+    generator = subprocess.Popen([sys.executable, "-c", script, str(n), "0.015", "0.002"], stdout=subprocess.PIPE)
+    estimate = subprocess.Popen([sys.executable, "-c", "from sailforce.cli import main; main()", "estimate", "-",
+                                 "--calibration", str(d / "static.json"), "--lsl-out", name, "--source-latency-ms", "15",
+                                 "-o", str(tmp_path / "out.csv")], stdin=generator.stdout, stderr=subprocess.PIPE,
+                                text=True)  # fmt: skip
+    generator.stdout.close()
+    try:
+        found = pylsl.resolve_byprop("name", name, 1, WAIT_S)
+        assert found, "sail estimate did not publish its outlet"
+        inlet = pylsl.StreamInlet(found[0], recover=False)
+        assert inlet.info(WAIT_S).nominal_srate() == pytest.approx(500.0, rel=1e-3)
+        samples, stamps = _pull(inlet, n)  # until the stream ends: all it sends after connecting
+        assert generator.wait(WAIT_S) == 0 and estimate.wait(WAIT_S) == 0, estimate.stderr.read()
+    finally:
+        generator.kill()
+        estimate.kill()
+    rows = list(csv.DictReader(open(tmp_path / "out.csv")))
+    # an inlet gets the samples pushed while it is connected; each is its row by fx, which load1 makes unique
+    true_of = {float(row["fx_N"]): float(row["true_lsl"]) for row in rows}
+    assert len(rows) == len(true_of) == n and 300 <= stamps.size <= n
+    true = np.array([true_of[fx] for fx in samples[:, 0]])
+    assert np.max(np.abs(stamps - true)) <= STAMP_TOL_S
