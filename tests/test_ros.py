@@ -294,3 +294,74 @@ def test_calibrate_from_an_xdf_stream_is_calibrate_from_its_table(cals, tmp_path
     fields = [{k: v for k, v in json.loads((tmp_path / f"{n}.json").read_text()).items() if k not in ("created", "data_sha256", "checksum")}
               for n in ("xdf", "csv")]  # fmt: skip
     assert fields[0] == fields[1]
+
+
+# -- Foxglove -------------------------------------------------------------------------------------------
+def test_sail_live_serves_foxglove_clients_the_wrench_joints_and_status(cals, tmp_path):
+    """`sail live --replay --foxglove 0`: a client speaking Foxglove's WebSocket protocol (subprotocol foxglove.sdk.v1)
+    sees the three channels advertised, subscribes, and decodes each row's messages: sail estimate's forces."""
+    import asyncio
+    import json
+    import subprocess
+    import sys
+
+    import aiohttp
+
+    d, static, _ = cals
+    source = _mixed(tmp_path / "in.csv", static.offsets)
+    assert run("estimate", source, "--calibration", d / "static.json", "-o", tmp_path / "out.csv").exit_code == 0
+    expected = {float(r["t_s"]): r for r in csv.DictReader(open(tmp_path / "out.csv")) if _is_number(r["t_s"])}
+    process = subprocess.Popen([sys.executable, "-c", "from sailforce.cli import main; main()", "live", str(source),
+                                "--replay", "--speed", "0.02", "--calibration", str(d / "static.json"), "--port", "0",
+                                "--foxglove", "0", "--record-dir", str(tmp_path / "rec")], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)  # fmt: skip
+
+    async def watch(url: str) -> dict[str, list]:
+        got: dict[str, list] = {}
+        async with aiohttp.ClientSession() as session, session.ws_connect(url, protocols=("foxglove.sdk.v1",)) as ws:
+            topics = {}
+            while len(topics) < 3:
+                message = json.loads((await asyncio.wait_for(ws.receive(), 10)).data)
+                if message["op"] == "advertise":
+                    topics |= {c["id"]: c for c in message["channels"]}
+            assert {c["topic"] for c in topics.values()} == {"/sail/wrench", "/sail/joint_states", "/sail/status"}
+            assert all(c["encoding"] == "json" and c["schemaEncoding"] == "jsonschema" for c in topics.values())
+            await ws.send_str(json.dumps({"op": "subscribe", "subscriptions": [{"id": i, "channelId": i} for i in topics]}))
+            try:
+                while True:
+                    frame = await asyncio.wait_for(ws.receive(), 5)
+                    if frame.type != aiohttp.WSMsgType.BINARY:
+                        break
+                    assert frame.data[0] == 1  # message data: opcode, subscription id, log time [ns], payload
+                    subscription, log_time = struct.unpack("<IQ", frame.data[1:13])
+                    got.setdefault(topics[subscription]["topic"], []).append((log_time, json.loads(frame.data[13:])))
+            except TimeoutError:  # the replay has ended
+                pass
+        return got
+
+    try:
+        line = ""
+        while "Foxglove WebSocket at" not in line:
+            line = process.stdout.readline()
+            assert line, process.stderr.read()
+        got = asyncio.run(watch(line.split("Foxglove WebSocket at ")[1].split()[0]))
+    finally:
+        process.terminate()
+        process.wait(10)
+    wrenches, joints, statuses = got["/sail/wrench"], got["/sail/joint_states"], got["/sail/status"]
+    assert len(wrenches) == len(joints) == len(statuses) >= 10
+    timed = 0
+    for (t, wrench), (_, joint), (_, status) in zip(wrenches, joints, statuses):
+        if wrench["t_s"] is None:  # the row whose t_s is not a number
+            assert status["name"] == "ok"
+            continue
+        timed += 1
+        row = expected[wrench["t_s"]]
+        assert wrench["frame_id"] == FRAME_ID and wrench["timestamp"]["sec"] * NS_PER_S + wrench["timestamp"]["nsec"] == t
+        for axis, key in (("x", "fx_N"), ("y", "fy_N")):
+            value = wrench["force"][axis]
+            assert (value is None and row[key] == "") or value == pytest.approx(float(row[key]), rel=1e-12)
+        assert joint["name"] == ["theta1", "theta2"]
+        assert joint["position"] == pytest.approx(np.radians([float(row["theta1_deg"]), float(row["theta2_deg"])]).tolist())
+        assert status["name"] == row["status"] == STATUS_NAMES[status["code"]]
+    assert timed >= 10

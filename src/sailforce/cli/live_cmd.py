@@ -45,6 +45,9 @@ MIN_TOKEN_CHARS = 16
 @click.option("--mcap-out", "mcap_out", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.mcap",
               help="Also record the session as a ROS 2 bag (MCAP): wrench, joint states, loads and status of every row, "
                    "stamped with its t_s (or, without one, its arrival time); finished when the server stops.")
+@click.option("--foxglove", "foxglove_port", type=click.IntRange(0, 65535), is_flag=False, flag_value=8765, default=None,
+              metavar="[PORT]", help="Also serve the wrench, joint states and status to Foxglove Studio over its WebSocket "
+              "protocol on 127.0.0.1 (port 8765 unless given; 0: any free one); docs/guide/ros-lsl.md shows the layout.")
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Address to serve on; 0.0.0.0 lets other machines see the page (and warns).")
 @click.option("--port", type=click.IntRange(0, 65535), default=8050, show_default=True, help="Port (0: any free one).")
@@ -60,7 +63,7 @@ MIN_TOKEN_CHARS = 16
               help="Also log pages connecting and commands carried out (refused and malformed messages always are).")
 @lowpass_options
 def live_command(cal_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in, lsl_out, latency_ms,
-                 mcap_out, host, port, allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz,
+                 mcap_out, foxglove_port, host, port, allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz,
                  lowpass_order):  # fmt: skip
     """Serve a live page of the arm and its force at http://127.0.0.1:8050/.
 
@@ -134,7 +137,8 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
             check_output(mcap_out, {"the --calibration file": cal_path, "the replayed file": source})
             bag = stack.enter_context(BagWriter(mcap_out))
         pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt,
-                                also=("t_s", "omega1_dps", "omega2_dps") if bag is not None else ("t_s",) if lsl_out else ())  # fmt: skip
+                                also=("t_s", "omega1_dps", "omega2_dps") if bag is not None
+                                else ("t_s",) if lsl_out or foxglove_port is not None else ())  # fmt: skip
         if bag is not None:
             pipeline.listen(bag_listener(bag))
             stack.callback(lambda: console.print(f"wrote {mcap_out}: {bag.rows:,} rows", highlight=False))
@@ -148,6 +152,13 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
             pipeline.listen(Outlet(lsl_out, rate_hz=rate, latency_s=latency_ms / 1e3,
                                    lsl_time=bool(getattr(blocks, "lsl_time", False))))  # fmt: skip
             console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)
+        if foxglove_port is not None:
+            from ..live.foxglove import FoxgloveView
+
+            view = FoxgloveView(foxglove_port)
+            stack.callback(view.close)
+            pipeline.listen(view)
+            click.echo(f"sail live: Foxglove WebSocket at {view.url} (Foxglove Studio: Open connection)", err=False)
         pipeline.start()
 
         def ready(url: str) -> None:
