@@ -365,3 +365,42 @@ def test_sail_live_serves_foxglove_clients_the_wrench_joints_and_status(cals, tm
         assert joint["position"] == pytest.approx(np.radians([float(row["theta1_deg"]), float(row["theta2_deg"])]).tolist())
         assert status["name"] == row["status"] == STATUS_NAMES[status["code"]]
     assert timed >= 10
+
+
+def _close(a, b, rel=1e-9):
+    """JSON trees equal, numbers within ``rel``."""
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_close(a[k], b[k], rel) for k in a)
+    if isinstance(a, list):
+        return len(a) == len(b) and all(_close(x, y, rel) for x, y in zip(a, b))
+    if isinstance(a, float) or isinstance(b, float):
+        return a == pytest.approx(b, rel=rel, abs=1e-12)
+    return a == b
+
+
+def test_calibrate_from_a_bag_with_a_reference_wrench_is_calibrate_from_its_table(cals, tmp_path):
+    """DATA.mcap: joint states, loads and a reference sensor's WrenchStamped paired by stamp give the calibration the
+    CSV gives (to rounding: the angles go through radians)."""
+    import json
+
+    from sailforce.io.rosbag import BagWriter, Topics
+
+    d, _, _ = cals
+    header, *lines = (d / "static.csv").read_text().splitlines()
+    table = np.array([[float(v) for v in line.split(",")] for line in lines])
+    names = header.split(",")
+    values = {name: table[:, names.index(name)] for name in ("theta1_deg", "theta2_deg", "load1", "load2")}
+    values["t_s"] = 10.0 + 0.001 * np.arange(len(table))
+    reference = {"fx_N": table[:, names.index("fx_N")], "fy_N": table[:, names.index("fy_N")]}
+    with BagWriter(tmp_path / "cal.mcap", Topics(wrench="/sail/reference_wrench", joints="/joint_states")) as bag:
+        bag.write(values, reference, np.zeros(len(table), dtype=int))
+    for name, source in (("bag", tmp_path / "cal.mcap"), ("csv", d / "static.csv")):
+        result = run("calibrate", source, "--model", "matrix", "-q", "-o", tmp_path / f"{name}.json")
+        assert result.exit_code == 0, result.output
+    bag_cal, csv_cal = (json.loads((tmp_path / f"{n}.json").read_text()) for n in ("bag", "csv"))
+    for key in ("created", "data_sha256", "checksum"):
+        bag_cal.pop(key, None), csv_cal.pop(key, None)
+    assert _close(bag_cal, csv_cal)
+    result = CliRunner().invoke(cli, ["calibrate", str(tmp_path / "cal.mcap"), "--force-topic", "/ft", "-q", "-o",
+                                      str(tmp_path / "x.json")])  # fmt: skip
+    assert result.exit_code != 0 and "no messages on /ft" in result.output and "--force-topic" in result.output

@@ -18,6 +18,7 @@ from ..fem.response import TRANSDUCTIONS
 from ..fit.calibration import MODEL_KINDS
 from ..fit.physics import DEFAULT_TRANSDUCTION
 from ..io.files import check_output
+from ..io.rosbag import is_bag, read_bag
 from ..io.tables import read_clean
 from ..io.xdf import is_xdf, read_xdf
 from ..workflows import calibration_run
@@ -39,7 +40,7 @@ def _parse_capacity(ctx, param, value):
 
 
 @cli.command("calibrate")
-@click.argument("data", metavar="DATA.csv", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("data", metavar="DATA.csv", type=click.Path(path_type=Path))
 @robot_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, callback=file_only,
               help="Calibration JSON to write.")
@@ -67,14 +68,23 @@ def _parse_capacity(ctx, param, value):
 @click.option("--stream", "xdf_stream", default=None, metavar="NAME",
               help="DATA.xdf (a LabRecorder file): the stream of readings and reference forces, its channels labelled "
                    "theta1_deg, theta2_deg, load1, load2, fx_N, fy_N; t_s is pyxdf's LSL time.")
+@click.option("--joint-topic", default="/joint_states", show_default=True,
+              help="DATA.mcap (or a rosbag2 folder): the sensor_msgs/msg/JointState topic of the angles [rad].")
+@click.option("--load-topic", default="/sail/loads", show_default=True,
+              help="DATA.mcap: the std_msgs/msg/Float64MultiArray [load1, load2] topic.")
+@click.option("--force-topic", default="/sail/reference_wrench", show_default=True,
+              help="DATA.mcap: the reference force, a geometry_msgs/msg/WrenchStamped in the base frame [N], paired "
+                   "with the joint state and loads of the same stamp.")
 def calibrate_command(data, robot_path, output, kind, free, transduction, quiet, capacity, load_unit, free_motion, adc_name,
-                      dynamics, xdf_stream):
+                      dynamics, xdf_stream, joint_topic, load_topic, force_topic):
     """Fit offsets and the sensing map from DATA.csv (or .parquet) with reference forces.
 
     DATA has the columns theta1_deg, theta2_deg, load1, load2 (raw readings
     in any linear unit) and fx_N, fy_N (the applied force); other columns are
     ignored.  DATA.xdf --stream NAME reads one stream of a LabRecorder file,
-    its channels labelled with those names.  Record several force directions at each of several poses
+    its channels labelled with those names; DATA.mcap (or a rosbag2 folder)
+    a ROS 2 bag's joint states, loads and reference wrench (--joint-topic,
+    --load-topic, --force-topic).  Record several force directions at each of several poses
     spanning the Δ = θ1 − θ2 range the robot will use.
 
     With --model physics (and auto, which tries it), the robot's frame model
@@ -99,6 +109,16 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     stack = ExitStack()
     if xdf_stream is not None:
         data = readings_parquet(read_xdf(data, xdf_stream), stack)
+    elif is_bag(data):
+        readings = read_bag(data, joint_topic, load_topic, force_topic)
+        for topic, n in readings.unpaired.items():
+            if n:
+                console.print(f"note: {n:,} messages on {topic} have no partner of the same stamp on the others: not "
+                              "used", highlight=False)  # fmt: skip
+        data = readings_parquet(readings.table, stack)
+    elif data.is_dir():
+        raise click.BadParameter(f"{data} is a folder, not a table (a rosbag2 folder holds metadata.yaml)",
+                                 param_hint="DATA.csv")  # fmt: skip
     with stack, progress_bar(console, "fitting the physics model", None, unit="starts",
                              quiet=quiet or kind not in ("physics", "auto")) as advance:  # fmt: skip
         run = calibration_run(data, robot=robot, model=kind, free=free_keys, transduction=transduction, capacity=capacity,

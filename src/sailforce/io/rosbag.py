@@ -32,7 +32,10 @@ that order) and the loads as ``std_msgs/msg/Float64MultiArray`` ``[load1,
 load2]`` on ``/sail/loads``, each pair of the same stamp one row (the joint
 state's ``header.stamp``, the loads' publish time): the table of
 :data:`BAG_COLUMNS` in the order of the stamps.  A message without its pair
-is counted (:attr:`BagReadings.unpaired`), never silently lost.
+is counted (:attr:`BagReadings.unpaired`), never silently lost.  For
+``sail calibrate``, a reference force sensor's
+``geometry_msgs/msg/WrenchStamped`` (``/sail/reference_wrench``) joins each
+pair at its ``header.stamp`` as ``fx_N, fy_N``.
 """
 
 from __future__ import annotations
@@ -248,17 +251,30 @@ def _topics_of(files: Iterable[Path]) -> dict[str, str]:
     return topics
 
 
-def read_bag(path: str | Path, joint_topic: str = "/joint_states", load_topic: str = "/sail/loads") -> BagReadings:
-    """The readings of an MCAP bag (see the module docstring): angles in degrees, loads as recorded, t_s the stamp."""
+def read_bag(path: str | Path, joint_topic: str = "/joint_states", load_topic: str = "/sail/loads",
+             force_topic: str | None = None) -> BagReadings:  # fmt: skip
+    """The readings of an MCAP bag (see the module docstring): angles in degrees, loads as recorded, t_s the stamp.
+
+    With ``force_topic`` (``sail calibrate --force-topic``), each row also
+    pairs the ``geometry_msgs/msg/WrenchStamped`` of the same
+    ``header.stamp`` there, a reference sensor's force in the base frame, as
+    ``fx_N, fy_N``.
+    """
     joints: dict[int, tuple[float, float]] = {}
     loads: dict[int, tuple[float, float]] = {}
+    forces: dict[int, tuple[float, float]] = {}
     types: dict[str, str] = {}  # topic -> message type, as met
-    for schema, channel, message, decoded in _messages(bag_files(path), [joint_topic, load_topic]):
-        types[channel.topic] = schema.name if schema is not None else "(no schema)"
-        if channel.topic == joint_topic:
-            if types[joint_topic] != "sensor_msgs/msg/JointState":
-                raise InputError(f"{path}: {joint_topic} carries {types[joint_topic]}, not sensor_msgs/msg/JointState "
-                                 "(--joint-topic names the joint states)")  # fmt: skip
+    wanted = {joint_topic: "sensor_msgs/msg/JointState", load_topic: "std_msgs/msg/Float64MultiArray"}
+    if force_topic is not None:
+        wanted[force_topic] = "geometry_msgs/msg/WrenchStamped"
+    options = {joint_topic: "--joint-topic", load_topic: "--load-topic", force_topic: "--force-topic"}
+    for schema, channel, message, decoded in _messages(bag_files(path), list(wanted)):
+        topic = channel.topic
+        types[topic] = schema.name if schema is not None else "(no schema)"
+        if types[topic] != wanted[topic]:
+            raise InputError(f"{path}: {topic} carries {types[topic]}, not {wanted[topic]} ({options[topic]} names "
+                             "the topic)")  # fmt: skip
+        if topic == joint_topic:
             names, position = list(decoded.name), list(decoded.position)
             if all(name in names for name in JOINT_NAMES):
                 picked = [position[names.index(name)] for name in JOINT_NAMES]
@@ -268,25 +284,30 @@ def read_bag(path: str | Path, joint_topic: str = "/joint_states", load_topic: s
                 raise InputError(f"{path}: a joint state on {joint_topic} has {len(position)} position(s); "
                                  "theta1 and theta2 are needed")  # fmt: skip
             joints[decoded.header.stamp.sec * NS_PER_S + decoded.header.stamp.nanosec] = (picked[0], picked[1])
-        else:
-            if types[load_topic] != "std_msgs/msg/Float64MultiArray":
-                raise InputError(f"{path}: {load_topic} carries {types[load_topic]}, not std_msgs/msg/Float64MultiArray "
-                                 "[load1, load2] (--load-topic names the loads)")  # fmt: skip
+        elif topic == load_topic:
             data = list(decoded.data)
             if len(data) != 2:
                 raise InputError(f"{path}: a message on {load_topic} holds {len(data)} values; [load1, load2] expected")
             loads[message.publish_time or message.log_time] = (data[0], data[1])
-    for topic, found in ((joint_topic, joints), (load_topic, loads)):
-        if not found:
+        else:
+            stamp = decoded.header.stamp.sec * NS_PER_S + decoded.header.stamp.nanosec
+            forces[stamp] = (decoded.wrench.force.x, decoded.wrench.force.y)
+    found = {joint_topic: joints, load_topic: loads} | ({force_topic: forces} if force_topic is not None else {})
+    for topic, messages in found.items():
+        if not messages:
             held = _topics_of(bag_files(path))
             seen = f" (it has {', '.join(f'{t} ({kind})' for t, kind in sorted(held.items()))})" if held else " (it is empty)"
-            raise InputError(f"{path}: no messages on {topic}{seen}; --joint-topic and --load-topic name the topics")
-    stamps = np.array(sorted(set(joints) & set(loads)), dtype=np.int64)
+            raise InputError(f"{path}: no messages on {topic}{seen}; {options[topic]} names the topic")
+    common = set(joints) & set(loads) & (set(forces) if force_topic is not None else set(joints))
+    stamps = np.array(sorted(common), dtype=np.int64)
     if stamps.size == 0:
-        raise InputError(f"{path}: no joint state on {joint_topic} has the stamp of a message on {load_topic}: "
-                         "each row pairs the two at the same stamp")  # fmt: skip
+        raise InputError(f"{path}: no stamp is on every one of {', '.join(found)}: each row pairs their messages at "
+                         "the same stamp")  # fmt: skip
     q = np.degrees(np.array([joints[s] for s in stamps.tolist()]))
     r = np.array([loads[s] for s in stamps.tolist()])
-    table = pa.table({"theta1_deg": q[:, 0], "theta2_deg": q[:, 1], "load1": r[:, 0], "load2": r[:, 1],
-                      "t_s": stamps / NS_PER_S})  # fmt: skip
-    return BagReadings(table, {joint_topic: len(joints) - stamps.size, load_topic: len(loads) - stamps.size})
+    columns = {"theta1_deg": q[:, 0], "theta2_deg": q[:, 1], "load1": r[:, 0], "load2": r[:, 1]}
+    if force_topic is not None:
+        f = np.array([forces[s] for s in stamps.tolist()])
+        columns |= {"fx_N": f[:, 0], "fy_N": f[:, 1]}
+    table = pa.table(columns | {"t_s": stamps / NS_PER_S})
+    return BagReadings(table, {topic: len(messages) - stamps.size for topic, messages in found.items()})
