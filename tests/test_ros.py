@@ -404,3 +404,30 @@ def test_calibrate_from_a_bag_with_a_reference_wrench_is_calibrate_from_its_tabl
     result = CliRunner().invoke(cli, ["calibrate", str(tmp_path / "cal.mcap"), "--force-topic", "/ft", "-q", "-o",
                                       str(tmp_path / "x.json")])  # fmt: skip
     assert result.exit_code != 0 and "no messages on /ft" in result.output and "--force-topic" in result.output
+
+
+@pytest.mark.parametrize("missing, args", [
+    ("mcap", ("--mcap-out", "out.mcap")),
+    ("pyxdf", ()),
+])  # fmt: skip
+def test_without_the_ros_extra_the_command_names_it(cals, tmp_path, monkeypatch, missing, args):
+    """A machine without the ros extra: one line naming the package and the extra, and no output file."""
+    import importlib
+
+    d, static, _ = cals
+    real = importlib.import_module
+
+    def without(name, *rest):
+        if name.split(".")[0] == missing:
+            raise ImportError(f"No module named {name!r}")
+        return real(name, *rest)
+
+    monkeypatch.setattr("sailforce._extras.importlib.import_module", without)
+    monkeypatch.chdir(tmp_path)
+    source = _mixed(tmp_path / "in.csv", static.offsets) if missing == "mcap" else MINIMAL_XDF
+    extra = () if missing == "mcap" else ("--stream", "SendDataC")
+    result = CliRunner().invoke(cli, ["estimate", str(source), *extra, "--calibration", str(d / "static.json"), "-o",
+                                      "o.csv", *args])  # fmt: skip
+    assert result.exit_code != 0
+    assert f"needs the Python package {missing!r}" in result.output and "sailforce[ros]" in result.output
+    assert result.output.count("\n") <= 2 and not (tmp_path / "o.csv").exists() and not (tmp_path / "out.mcap").exists()
