@@ -473,3 +473,26 @@ def test_an_xdf_file_labrecorder_wrote_from_an_lsl_stream_estimates_as_the_strea
     want = list(csv.DictReader(open(tmp_path / "from_csv.csv")))
     for a, b in zip(rows, want):
         assert a["status"] == b["status"] and float(a["fx_N"]) == pytest.approx(float(b["fx_N"]), rel=1e-12)
+
+
+def test_in_motion_the_joint_states_carry_the_derived_rates(cals, tmp_path):
+    """With a dynamic term, each joint state's velocities are the differentiator's rates: against a central
+    difference of the positions 25 ms either side (the encoders' steps make a shorter one noisy), within 3 % of the
+    largest rate where the motion is known."""
+    d, _, _ = cals
+    assert run("simulate-motion", "--session", "task", "--reaches", "1", "--rig", "1", "-o", tmp_path / "task.csv").exit_code == 0
+    result = run("estimate", tmp_path / "task.csv", "--calibration", d / "dynamic.json", "-o", tmp_path / "out.csv",
+                 "--mcap-out", tmp_path / "out.mcap")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    messages, _ = _bag(tmp_path / "out.mcap")
+    t = np.array([s / NS_PER_S for s, _ in messages["/sail/joint_states"]])
+    q = np.array([m.position for _, m in messages["/sail/joint_states"]])
+    velocity = [m.velocity for _, m in messages["/sail/joint_states"]]
+    assert all(len(v) == 2 for v in velocity)
+    v = np.array(velocity)
+    h = 25
+    central = (q[2 * h:] - q[:-2 * h]) / (t[2 * h:, None] - t[:-2 * h, None])
+    inner = v[h:-h]
+    known = np.isfinite(inner).all(axis=1)
+    assert known.sum() > 0.8 * known.size
+    assert np.max(np.abs(inner[known] - central[known])) <= 0.03 * np.max(np.abs(central[known]))

@@ -14,8 +14,9 @@ message per row on each topic (:class:`Topics`), each logged at the row's
   multi-rate recording (the conversion's centroid; the row's ``t_s`` before
   the first estimate), else ``t_s``;
 - ``sensor_msgs/msg/JointState`` (``/sail/joint_states``): ``theta1``,
-  ``theta2`` in radians, with the measured rates (``omega1_dps``,
-  ``omega2_dps``) as velocities when the input has them;
+  ``theta2`` in radians, with the rates (``omega1_dps``, ``omega2_dps``:
+  measured, or derived by the dynamic term's differentiator) as velocities
+  when there are any;
 - ``std_msgs/msg/Float64MultiArray`` (``/sail/loads``): ``[load1, load2]``,
   the raw readings (NaN where the row has no conversion);
 - ``std_msgs/msg/UInt8`` (``/sail/status``): the status code of

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 from typing import Protocol
 
@@ -144,18 +145,29 @@ def _job_output(cal: Calibration, job: Callable[[], Chunk], parquet: ParquetType
     return _chunk_output(cal, chunk, _loads(chunk.values, chunk.malformed, None), parquet)
 
 
+def _heard(chunk: Chunk, motion: MotionRows | None) -> Chunk:
+    """The chunk a listener hears: with a motion whose rates were derived, the rates among its values (``omega1_dps,
+    omega2_dps``, as a table of measured rates names them)."""
+    if motion is None or {"omega1_dps", "omega2_dps"} & chunk.values.keys():
+        return chunk
+    return replace(chunk, values={**chunk.values, "omega1_dps": np.degrees(motion.rate[:, 0]),
+                                  "omega2_dps": np.degrees(motion.rate[:, 1])})  # fmt: skip
+
+
 def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: ParquetTypes | None,
                   motion: MotionRows | None = None, on_rows: RowListener | None = None,
                   estimated: tuple[dict[str, np.ndarray], np.ndarray] | None = None):  # fmt: skip
     """One chunk's output (CSV bytes, or an Arrow table when writing Parquet), its status counts, its size, and what
-    a listener hears of it (the chunk, its columns and statuses: ``stream_estimate`` tells it in order).
+    a listener hears of it (the chunk, its columns and statuses: ``stream_estimate`` tells it in order).  With a
+    motion whose rates were derived, the chunk heard carries them among its values, as ``omega1_dps, omega2_dps``.
 
     ``estimated`` holds the chunk's columns and statuses when they were made in order beforehand (multi-rate).
     """
     columns, status = estimated if estimated is not None else _estimate(cal, chunk.values, chunk.malformed, loads, motion)
+    heard_chunk = _heard(chunk, motion)
     if on_rows is not None:
-        on_rows(chunk, columns, status)
-    counts, size, heard = count_statuses(status), (chunk.num_rows, chunk.input_size), (chunk, columns, status)
+        on_rows(heard_chunk, columns, status)
+    counts, size, heard = count_statuses(status), (chunk.num_rows, chunk.input_size), (heard_chunk, columns, status)
     if parquet is not None:
         table = parquet.convert(chunk) if chunk.from_csv else chunk.table
         return output_table(table, columns, status), counts, size, heard
@@ -307,7 +319,7 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
         if _discarding(out):  # the numbers alone, for the listener
             columns, status = estimated or _estimate(cal, chunk.values, chunk.malformed, loads, rows)
             if on_rows is not None:
-                on_rows(chunk, columns, status)
+                on_rows(_heard(chunk, rows), columns, status)
             counts += count_statuses(status)
             return
         output, chunk_counts, _, _ = _chunk_output(cal, chunk, loads, None, rows, on_rows, estimated)
