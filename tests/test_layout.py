@@ -80,7 +80,7 @@ LAYERS: tuple[tuple[str, frozenset[str]], ...] = tuple((floor, frozenset(names.s
     ("run-time estimation", "estimate"),
     ("the calibration: data and file", "calibration"),
     ("fitting", "fit"),
-    ("the paper, design, the solid, the stream pipeline, C export", "paper design solid stream export_c"),
+    ("the paper, design, the solid, the stream pipeline, C export, rig checks", "paper design solid stream export_c rig"),
     ("workflows", "workflows"),
     ("the package's public names", "sailforce"),
     ("live", "live"),

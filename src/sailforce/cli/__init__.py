@@ -47,6 +47,7 @@ EXIT_TERMINATED = 143  #: 128 + SIGTERM
 _COMMAND_MODULES = {
     "calibrate": "calibrate_cmd",
     "cell-fit": "solid_cmd",
+    "check-rig": "check_rig_cmd",
     "demo": "demo_cmd",
     "design": "design_cmd",
     "estimate": "estimate_cmd",
