@@ -242,6 +242,7 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
             blocks = inlet_blocks(lsl_in)
         elif serial_port is not None:
             port = stack.enter_context(sources.serial_lines(serial_port, baud))
+            stack.callback(lambda: _report_frames(console, port))
             blocks = sources.gathered(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name)),
                                       seconds_per_byte=sources.serial_seconds_per_byte(baud))  # fmt: skip
         else:
@@ -253,6 +254,14 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
         return estimate_lines(cal, stamps.lines(blocks), lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report,
                               on_rows=on_rows if listeners else None,
                               also=(*BAG_ALSO, *LSL_ALSO) if bag is not None else LSL_ALSO if lsl_out else ())  # fmt: skip
+
+
+def _report_frames(console, port) -> None:
+    """A binary stream's frame counts: every lost tick is a row of its own, marked frame=lost (docs/reference/frames.md)."""
+    decoder = getattr(port, "decoder", None)
+    if decoder is not None:
+        console.print(f"frames: {decoder.frames:,} ticks, {decoder.lost:,} lost (each an invalid row, frame=lost), "
+                      f"{decoder.corrupt:,} corrupt (bad CRC or length)", highlight=False, soft_wrap=True)  # fmt: skip
 
 
 def _outlet(name: str, dt: float | None, latency_s: float, blocks):

@@ -161,9 +161,56 @@ def simulated_arm(robot: Robot, *, rig: int = 1, speed: float = 1.0, noise: Nois
     return _paced(lines(), speed)
 
 
+#: Bytes a serial stream is looked at before it is taken as text or frames.
+DETECT_BYTES = 512
+
+
+class SerialStream(Iterator[bytes]):
+    """A serial port's lines: its own text lines, or rows decoded from the rig's binary frames
+    (:mod:`sailforce.io.frames`), told apart by the first bytes (a frame ends with a zero byte; text has none).
+    Nothing is read until the first line is asked for; ``decoder`` then holds the frames' counts (None for text)."""
+
+    def __init__(self, port, serial) -> None:
+        self.decoder: object | None = None  # a sailforce.io.frames.FrameDecoder once frames are detected
+        self._lines = self._detect(port, serial)
+
+    def __next__(self) -> bytes:
+        return next(self._lines)
+
+    def _detect(self, port, serial) -> Iterator[bytes]:
+        from ..io.frames import FrameDecoder
+
+        first = b""
+        try:
+            while len(first) < DETECT_BYTES and b"\x00" not in first and b"\n" not in first:
+                chunk = port.read(max(1, min(port.in_waiting, DETECT_BYTES)))
+                if not chunk:
+                    break
+                first += chunk
+            if b"\x00" in first:
+                decoder = self.decoder = FrameDecoder()
+                yield decoder.header()
+                yield from decoder.feed(first)
+                while chunk := port.read(max(1, port.in_waiting)):
+                    yield from decoder.feed(chunk)
+                return
+            pending = first
+            while b"\n" in pending:  # the detected bytes' whole lines, then the port's
+                line, _, pending = pending.partition(b"\n")
+                yield line + b"\n"
+            rest = read_line(port) if pending or first else b""
+            if pending or rest:
+                yield pending + rest
+            while line := read_line(port):
+                yield line
+        except serial.SerialException:
+            return
+
+
 @contextmanager
 def serial_lines(port_name: str, baud: int):
-    """Raw lines from a serial port, until it ends (hang-up, cable pulled); needs the ``serial`` extra."""
+    """Lines from a serial port, until it ends (hang-up, cable pulled); needs the ``serial`` extra.  Text lines as
+    they come, or the rows of the rig's binary frames (:class:`SerialStream`)."""
     from .._extras import require
 
     serial = require("serial", "serial", "--serial")
@@ -171,16 +218,8 @@ def serial_lines(port_name: str, baud: int):
         port = serial.serial_for_url(port_name, baudrate=baud, timeout=None)
     except (serial.SerialException, ValueError) as exc:
         raise TableError(f"--serial {port_name}: cannot open it ({exc})") from None
-
-    def lines() -> Iterator[bytes]:
-        try:
-            while line := read_line(port):
-                yield line
-        except serial.SerialException:
-            return
-
     with port:
-        yield lines()
+        yield SerialStream(port, serial)
 
 
 def is_header(line: bytes, required: tuple[str, ...] = READING_COLUMNS) -> bool:
