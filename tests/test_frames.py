@@ -75,8 +75,18 @@ def test_frames_through_a_serial_port_give_the_file_mode_s_bytes(cals, tmp_path)
     process = subprocess.Popen([*sail, "--serial", os.ttyname(slave), "-o", str(tmp_path / "serial.csv")],
                                stderr=subprocess.PIPE, text=True)  # fmt: skip
 
+    def opened() -> bool:  # pyserial flushes what came before its open(): wait until the command holds the port
+        fds = f"/proc/{process.pid}/fd"
+        try:
+            return any(os.path.realpath(os.path.join(fds, fd)) == os.ttyname(slave) for fd in os.listdir(fds))
+        except OSError:
+            return False
+
     def send() -> None:
-        time.sleep(1.0)  # the port is open
+        deadline = time.monotonic() + 30
+        while not opened() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(0.2)  # and past its flush
         for start in range(0, len(data), 512):
             os.write(master, data[start : start + 512])
             time.sleep(0.005)
