@@ -191,3 +191,21 @@ def readings_parquet(table, stack) -> Path:
     folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sail-readings-")))
     pq.write_table(table, folder / "readings.parquet")
     return folder / "readings.parquet"
+
+
+def bag_topic_options(func):
+    """``--joint-topic`` and ``--load-topic``: the topics a ROS 2 bag's readings are read from (sailforce.io.rosbag)."""
+    func = click.option("--load-topic", default="/sail/loads", show_default=True,
+                        help="IN.mcap: the std_msgs/msg/Float64MultiArray [load1, load2] topic, paired with the joint "
+                             "state of the same stamp.")(func)  # fmt: skip
+    return click.option("--joint-topic", default="/joint_states", show_default=True,
+                        help="IN.mcap (or a rosbag2 folder): the sensor_msgs/msg/JointState topic of the angles "
+                             "[rad].")(func)  # fmt: skip
+
+
+def latency_option(func):
+    """``--source-latency-ms``: the readings' known age when they arrive, taken off their LSL stamps."""
+    return click.option("--source-latency-ms", "latency_ms", type=FINITE, default=0.0, show_default=True, metavar="MS",
+                        help="--lsl-out: how old each reading is when its line arrives (the device's own delay, USB "
+                             "buffering), taken off its LSL stamp; a serial line's transmission time at --baud is "
+                             "taken off as well.")(func)  # fmt: skip

@@ -23,7 +23,7 @@ from ..io.tables import read_clean
 from ..io.xdf import is_xdf, read_xdf
 from ..workflows import calibration_run
 from . import cli
-from ._options import file_only, load_robot, readings_parquet, resolve_reading, robot_option
+from ._options import bag_topic_options, file_only, load_robot, readings_parquet, resolve_reading, robot_option
 from ._progress import progress_bar
 
 
@@ -68,10 +68,7 @@ def _parse_capacity(ctx, param, value):
 @click.option("--stream", "xdf_stream", default=None, metavar="NAME",
               help="DATA.xdf (a LabRecorder file): the stream of readings and reference forces, its channels labelled "
                    "theta1_deg, theta2_deg, load1, load2, fx_N, fy_N; t_s is pyxdf's LSL time.")
-@click.option("--joint-topic", default="/joint_states", show_default=True,
-              help="DATA.mcap (or a rosbag2 folder): the sensor_msgs/msg/JointState topic of the angles [rad].")
-@click.option("--load-topic", default="/sail/loads", show_default=True,
-              help="DATA.mcap: the std_msgs/msg/Float64MultiArray [load1, load2] topic.")
+@bag_topic_options
 @click.option("--force-topic", default="/sail/reference_wrench", show_default=True,
               help="DATA.mcap: the reference force, a geometry_msgs/msg/WrenchStamped in the base frame [N], paired "
                    "with the joint state and loads of the same stamp.")

@@ -19,7 +19,7 @@ from ..io.tables import READING_COLUMNS, csv_header, input_size, is_parquet, par
 from ..io.xdf import is_xdf, read_xdf
 from ..stream.pipeline import estimate_lines, stream_estimate, table_motion
 from . import cli
-from ._options import FINITE, lowpass_options, make_lowpass, readings_parquet
+from ._options import bag_topic_options, latency_option, lowpass_options, make_lowpass, readings_parquet
 from ._progress import progress_bar, skipped_note
 
 #: The columns a bag's messages need beyond the readings: each row's time, and the measured rates as velocities.
@@ -44,20 +44,14 @@ LSL_ALSO = ("t_s",)
 @click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
               help="Publish a live stream's force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, "
                    "status), each sample stamped with its reading's own time on LSL's clock (docs/guide/live.md).")
-@click.option("--source-latency-ms", "latency_ms", type=FINITE, default=0.0, show_default=True, metavar="MS",
-              help="--lsl-out: how old each reading is when its line arrives (the device's own delay, USB buffering), "
-                   "taken off its LSL stamp; a serial line's transmission time at --baud is taken off as well.")
+@latency_option
 @click.option("--mcap-out", "mcap_out", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.mcap",
               help="Also write a ROS 2 bag (MCAP, CDR): the wrench, joint states, loads and status of every row with a "
                    "t_s, stamped in the input's seconds (docs/guide/ros-lsl.md).")
 @click.option("--mcap-topic", "mcap_topics", multiple=True, metavar="KIND=/NAME",
               help="--mcap-out: rename a topic, KIND one of wrench, joints, loads, status (default /sail/wrench, "
                    "/sail/joint_states, /sail/loads, /sail/status); repeatable.")
-@click.option("--joint-topic", default="/joint_states", show_default=True,
-              help="IN.mcap (or a rosbag2 folder): the sensor_msgs/msg/JointState topic of the angles [rad].")
-@click.option("--load-topic", default="/sail/loads", show_default=True,
-              help="IN.mcap: the std_msgs/msg/Float64MultiArray [load1, load2] topic, paired with the joint state of "
-                   "the same stamp.")
+@bag_topic_options
 @click.option("--stream", "xdf_stream", default=None, metavar="NAME",
               help="REC.xdf: the stream of readings (channels labelled theta1_deg, theta2_deg, load1, load2, others pass "
                    "through); t_s is pyxdf's synchronised, dejittered LSL time.")

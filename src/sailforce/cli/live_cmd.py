@@ -15,7 +15,7 @@ from ..calibration.file import Calibration
 from ..errors import SailError
 from ..live.recorder import RECORD_FORMATS
 from . import cli
-from ._options import FINITE, PrimaryOption, lowpass_options, make_lowpass, robot_option
+from ._options import FINITE, PrimaryOption, latency_option, lowpass_options, make_lowpass, robot_option
 
 #: The shortest token accepted from --token or SAIL_LIVE_TOKEN: 16 characters.
 MIN_TOKEN_CHARS = 16
@@ -39,9 +39,7 @@ MIN_TOKEN_CHARS = 16
               help="Read the readings from the Lab Streaming Layer stream NAME (theta1_deg, theta2_deg, load1, load2[, t_s]).")
 @click.option("--lsl-out", "lsl_out", default=None, metavar="NAME",
               help="Also publish the force as the Lab Streaming Layer stream NAME (fx_N, fy_N, force_N, angle_deg, status).")
-@click.option("--source-latency-ms", "latency_ms", type=FINITE, default=0.0, show_default=True, metavar="MS",
-              help="--lsl-out: how old each reading is when its line arrives (the device's own delay, USB buffering), "
-                   "taken off its LSL stamp; a serial line's transmission time at --baud is taken off as well.")
+@latency_option
 @click.option("--mcap-out", "mcap_out", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.mcap",
               help="Also record the session as a ROS 2 bag (MCAP): wrench, joint states, loads and status of every row, "
                    "stamped with its t_s (or, without one, its arrival time); finished when the server stops.")
