@@ -264,16 +264,15 @@ def read_bag(path: str | Path, joint_topic: str = "/joint_states", load_topic: s
     joints: dict[int, tuple[float, float]] = {}
     loads: dict[int, tuple[float, float]] = {}
     forces: dict[int, tuple[float, float]] = {}
-    types: dict[str, str] = {}  # topic -> message type, as met
     wanted = {joint_topic: "sensor_msgs/msg/JointState", load_topic: "std_msgs/msg/Float64MultiArray"}
     if force_topic is not None:
         wanted[force_topic] = "geometry_msgs/msg/WrenchStamped"
     options = {joint_topic: "--joint-topic", load_topic: "--load-topic", force_topic: "--force-topic"}
     for schema, channel, message, decoded in _messages(bag_files(path), list(wanted)):
         topic = channel.topic
-        types[topic] = schema.name if schema is not None else "(no schema)"
-        if types[topic] != wanted[topic]:
-            raise InputError(f"{path}: {topic} carries {types[topic]}, not {wanted[topic]} ({options[topic]} names "
+        kind = schema.name if schema is not None else "(no schema)"
+        if kind != wanted[topic]:
+            raise InputError(f"{path}: {topic} carries {kind}, not {wanted[topic]} ({options[topic]} names "
                              "the topic)")  # fmt: skip
         if topic == joint_topic:
             names, position = list(decoded.name), list(decoded.position)
