@@ -8,6 +8,8 @@ BUILD := build
 VECTORS := $(BUILD)/vectors
 #: the default calibration's header, as `sail export-c` writes it (tests/test_libsail.py checks it is current)
 EXPORT_DEFAULT := c/examples/calibration.json -o c/examples/sail_calibration.h --lowpass-hz 10 --sample-rate-hz 80 --lowpass-order 2
+# The sketch's multi-rate build: a simulated rig with HX711s at 80 SPS and its dynamic term, ticks at 1 kHz.
+EXPORT_HX711 := c/examples/hx711/calibration.json -o c/examples/hx711/sail_calibration.h --sample-rate-hz 1000
 
 .PHONY: install-ccx demo test lint docs c-test c-default cross cross-test arm-toolchain qemu-arm valgrind chromium live bench fuzz install clean
 
@@ -117,6 +119,8 @@ fuzz: $(STAMP)
 clean:
 	rm -rf $(VENV) $(BUILD) src/*.egg-info .pytest_cache .hypothesis
 
-# Regenerate the default calibration header after changing c/examples/calibration.json or export-c.
+# Regenerate the example calibration headers after changing their calibration.json or export-c.  The HX711 one
+# comes from `sail simulate-motion --adc hx711-80` (static and free sessions) and `sail calibrate --free-motion`.
 c-default: $(STAMP)
 	$(VENV)/bin/sail export-c $(EXPORT_DEFAULT)
+	$(VENV)/bin/sail export-c $(EXPORT_HX711)

@@ -37,6 +37,18 @@ def _define(name: str) -> str:
     return match.group(1)
 
 
+def test_device_status_bits_match_the_sketch():
+    """The frames' status bits mean in Python what the sketch's acquisition sets (sail_acq.h's SAIL_ACQ_*)."""
+    from sailforce.io.frames import DEVICE_STATUS, TICK
+
+    header = (ROOT / "c" / "examples" / "arduino" / "sail_hx711" / "sail_acq.h").read_text()
+    bits = {int(value, 16): name.lower() for name, value in re.findall(r"^#define SAIL_ACQ_([A-Z]+) (0x[0-9A-F]+)u", header,
+                                                                        re.MULTILINE)}  # fmt: skip
+    assert bits == DEVICE_STATUS
+    frame = (ROOT / "c" / "examples" / "arduino" / "sail_hx711" / "sail_frame.h").read_text()
+    assert int(re.search(r"#define SAIL_FRAME_TICK_BYTES (\d+)", frame).group(1)) == TICK.size
+
+
 def test_header_constants_match_python():
     assert float(_define("SAIL_SINGULAR_SIN_DELTA")) == pytest.approx(SINGULAR_SIN_DELTA, rel=1e-15)
     assert float(_define("SAIL_DELTA_RANGE_SLACK")) == pytest.approx(DELTA_RANGE_SLACK, rel=1e-15)
@@ -57,9 +69,10 @@ def test_header_constants_match_python():
     assert int(_define("SAIL_HISTORY")) == multirate.HISTORY
 
 
-def test_default_header_is_current(tmp_path):
-    """c/examples/sail_calibration.h is what `sail export-c` makes of c/examples/calibration.json (Makefile EXPORT_DEFAULT)."""
-    line = re.search(r"^EXPORT_DEFAULT := (.+)$", (ROOT / "Makefile").read_text(), re.MULTILINE).group(1)
+@pytest.mark.parametrize("variable", ["EXPORT_DEFAULT", "EXPORT_HX711"])
+def test_example_headers_are_current(tmp_path, variable):
+    """c/examples' headers are what `sail export-c` makes of their calibration.json (the Makefile's EXPORT_*)."""
+    line = re.search(rf"^{variable} := (.+)$", (ROOT / "Makefile").read_text(), re.MULTILINE).group(1)
     args = shlex.split(line)
     committed = ROOT / args[args.index("-o") + 1]
     args[args.index("-o") + 1] = str(tmp_path / committed.name)

@@ -97,3 +97,95 @@ def test_bad_input_gets_a_one_line_error(tmp_path):
     result = CliRunner().invoke(cli, ["check-rig", str(tmp_path / "no_time.csv"), "--adc", "hx711-80",
                                       "--calibration", str(tmp_path / "c.json")])  # fmt: skip
     assert result.exit_code == 2 and "not both" in result.output
+
+
+# ---- live: sail check-rig --serial, frames from a simulated device over pyserial's socket:// port ------------------
+
+
+def _device_ticks(n: int, periods_us=(12_500, 12_563), flagged=(700, 701, 1500)):
+    """A device's ticks at 1 kHz: two HX711s on their own clocks (80 and 79.6 SPS), stamped; settling for the first
+    50 ms; the encoder flag on the ``flagged`` ticks."""
+    from sailforce.io.frames import Tick
+
+    ticks, next_ready = [], [50_000 + 300, 50_000 + 7_100]
+    for i in range(n):
+        now = 1_000 * (i + 1)
+        new, ready = [False, False], [0, 0]
+        for k in (0, 1):
+            if next_ready[k] <= now:
+                new[k], ready[k] = True, next_ready[k] - now
+                next_ready[k] += periods_us[k]
+        status = (0x01 if now < 50_000 else 0) | (0x04 if i in flagged else 0)
+        ticks.append(Tick(i, 7_000_000 + now, (2**22, 2**20), tuple(new), (120_000 + i, -80_000 - i), tuple(ready), status))
+    return ticks
+
+
+def _serve(frames: list[bytes], per_s: float):
+    """A TCP port that sends ``frames`` at ``per_s`` frames a second to the first client: (url, thread)."""
+    import socket
+    import threading
+    import time
+
+    server = socket.create_server(("127.0.0.1", 0))
+    server.settimeout(30)
+
+    def send():
+        with server:
+            client, _ = server.accept()
+            with client:
+                start, burst = time.monotonic(), 25
+                for k in range(0, len(frames), burst):
+                    time.sleep(max(0.0, start + k / per_s - time.monotonic()))
+                    client.sendall(b"".join(frames[k : k + burst]))
+                time.sleep(4.0)  # held open until the reader's --seconds are up
+
+    thread = threading.Thread(target=send, daemon=True)
+    thread.start()
+    return f"socket://127.0.0.1:{server.getsockname()[1]}", thread
+
+
+def test_a_live_port_is_measured_with_its_lost_and_corrupt_frames(tmp_path):
+    from sailforce.io.frames import encode_hello, encode_tick
+
+    ticks = _device_ticks(2_400)
+    frames = [encode_hello((2**24, 2**24))] + [encode_tick(t) for t in ticks]
+    lost, corrupted = (next(i for i in range(start, len(ticks)) if ticks[i].new == (False, False)) for start in (900, 1200))
+    frames[1 + lost] = b""  # lost on the way (ticks without a conversion: a lost conversion is a missed one)
+    damaged = bytearray(frames[1 + corrupted])
+    damaged[4] ^= 0x21
+    frames[1 + corrupted] = bytes(damaged)
+    url, sender = _serve(frames, per_s=1_000.0)
+    out = run("check-rig", "--serial", url, "--seconds", "3", "--adc", "hx711-80", "--record", tmp_path / "rig.csv",
+              "--json", tmp_path / "rig.json")  # fmt: skip
+    sender.join(10)
+    report = json.loads((tmp_path / "rig.json").read_text())
+    link = report["link"]
+    assert (link["binary"], link["frames"], link["lost"], link["corrupt"]) == (True, 2_398, 2, 1), out.output
+    assert 950 < link["rows_per_s"] < 1_100  # 1 kHz of ticks, timed from the first byte to the last
+    assert link["bytes_per_s"] == pytest.approx(33 * link["rows_per_s"], rel=0.05)
+    rate1, rate2 = (c["rate_Hz"] for c in report["cells"])
+    assert rate1 == pytest.approx(1e6 / 12_500, rel=1e-9) and rate2 == pytest.approx(1e6 / 12_563, rel=1e-9)
+    assert report["device_status"]["encoder"] == 3 and report["device_status"]["settling"] == 49
+    # 2 lost of 2,400 is within 0.1 %; the missed encoder edges are the one problem
+    assert out.exit_code == 1 and report["problems"] == ["an encoder missed edges on 3 ticks: its interrupt is too slow "
+                                                         "for the shaft's speed"], out.output  # fmt: skip
+    assert "2,398 frames, 2 lost, 1 corrupt" in out.output
+    rows = list(csv.DictReader(open(tmp_path / "rig.csv")))
+    assert len(rows) == 2_400 and sum(r["frame"] == "lost" for r in rows) == 2
+
+
+def test_a_live_port_too_slow_for_its_tick_is_said(tmp_path):
+    from sailforce.io.frames import encode_tick
+
+    frames = [encode_tick(t) for t in _device_ticks(1_000, flagged=())]
+    url, sender = _serve(frames, per_s=450.0)  # a 115,200-baud link carries ~349 of 1,000 ticks a second
+    out = run("check-rig", "--serial", url, "--seconds", "3", "--adc", "hx711-80")
+    sender.join(10)
+    assert out.exit_code == 1
+    assert "rows/s" in out.output and "the link is too slow for the stream" in out.output, out.output
+
+
+def test_check_rig_takes_a_recording_or_a_port(tmp_path):
+    assert "one of them" in run("check-rig", "--adc", "hx711-80").output
+    nothing = run("check-rig", "--serial", "socket://127.0.0.1:9", "--seconds", "0.5", "--adc", "hx711-80")
+    assert nothing.exit_code != 0 and "cannot open it" in nothing.output and "Traceback" not in nothing.output

@@ -32,6 +32,10 @@ stream).  ``multirate_static.csv`` is the same without the dynamic term, and
 ``multirate_sinc3.csv`` a session of sinc^3 conversions at 320 SPS (NAU7802)
 on the same map (``cal_sinc3.h``).
 
+``frames.csv`` holds ticks and their bytes on the wire from
+:func:`sailforce.io.frames.encode_tick` (and a hello), for the sketch's frame
+encoder (``c/tests/test_acq.c``).
+
 It also writes ``lowpass.csv``, a reading sequence with invalid rows and the
 loads :class:`sailforce.estimate.filters.LowPass` makes of it, for the filter exported
 with the matrix calibration (``sail_cal_matrix_lowpass``).
@@ -157,6 +161,32 @@ def _motion_vectors(outdir: Path) -> None:
                "inertial2"], np.column_stack([t, rows, fx, fy, status, inertial]))  # fmt: skip
 
 
+def _frame_vectors(outdir: Path) -> None:
+    """Ticks and their bytes on the wire from :func:`sailforce.io.frames.encode_tick`, for the sketch's encoder.
+
+    The fields reach the limits of their types (a wrapping sequence and clock, negative counts and loads, the
+    24-bit limits), and some bytes are zero, so that COBS has runs to stuff.  The row with sequence 65535 and
+    flags 255 is the hello frame, its counts per turn in the counts columns.
+    """
+    from sailforce.io.frames import Tick, encode_hello, encode_tick
+
+    ticks = [
+        Tick(0, 0, (0, 0), (False, False), (0, 0), (0, 0), 0),
+        Tick(1, 1000, (1565, 134), (True, False), (200000, 0), (-437, 0), 0x01),
+        Tick(2, 2000, (-1, -2048), (False, True), (0, -150000), (0, -999), 0x20),
+        Tick(65534, 0xFFFFFC18, (2**31 - 1, -(2**31)), (True, True), (8388607, -8388608), (-1, -32768), 0x12),
+        Tick(65535, 0xFFFFFFFF, (256, 65536), (True, True), (-1, 1), (-500, -250), 0xFF),
+        Tick(0, 1000, (0x01000000, 0x00FF00FF), (False, False), (0, 0), (0, 0), 0x04),
+        Tick(17, 123456789, (-123456, 654321), (True, False), (-123456, 0), (-32767, 0), 0x08),
+        Tick(4660, 0x00010000, (0, 0), (False, True), (0, 0x00000100), (0, -256), 0),
+    ]
+    rows = [(t.sequence, t.time_us, *t.theta_counts, int(t.new[0]) | int(t.new[1]) << 1, *t.load, *t.ready_us,
+             t.status, encode_tick(t).hex()) for t in ticks]  # fmt: skip
+    rows.append((65535, 0, 8192, 2**24, 255, 0, 0, 0, 0, 0, encode_hello((8192, 2**24)).hex()))
+    header = "sequence,time_us,counts1,counts2,fresh,load1,load2,ready1,ready2,status,frame"
+    (outdir / "frames.csv").write_text(header + "\n" + "".join(",".join(map(str, row)) + "\n" for row in rows))
+
+
 def _multirate_vectors(outdir: Path) -> None:
     """A multi-rate rig's calibration with its ADC, and a task session's ticks with Python's estimates."""
     from sailforce import Handle, Plane, calibrate
@@ -235,6 +265,7 @@ def main(outdir: Path) -> None:
                        _lowpass_vectors(cal, rng))  # fmt: skip
     _motion_vectors(outdir)
     _multirate_vectors(outdir)
+    _frame_vectors(outdir)
     print(f"wrote libsail test vectors to {outdir}")
 
 

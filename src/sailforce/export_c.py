@@ -263,7 +263,9 @@ def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str 
                  f"static const sail_real {name}_lowpass_df2T[5 * {stages}] = {_array(df2t_coefficients(lowpass))};\n")
     if dynamics:
         text += "\n" + _initializer("sail_dynamics", f"{name}_dynamics", dynamics_fields(cal, sample_rate_hz))
+        text += f"#define {name.upper()}_HAS_DYNAMICS 1  /* for #ifdef in firmware built on several calibrations */\n"
     if multirate:
         text += (f"\n/* The cells' ADC ({c(cal.adc.model)}) for sail_multirate_init, with encoder ticks at {sample_rate_hz:g} Hz. */\n"
                  + _initializer("sail_adc", f"{name}_adc", adc_fields(cal, sample_rate_hz)))
+        text += f"#define {name.upper()}_HAS_ADC 1\n"
     return text + f"\n#endif /* {guard} */\n"

@@ -19,6 +19,7 @@ void StubSerial::print(char) {}
 void StubSerial::print(long) {}
 void StubSerial::print(double, int) {}
 void StubSerial::println(const char *) {}
+size_t StubSerial::write(const uint8_t *, size_t n) { return n; }
 
 void setup(void);
 void loop(void);

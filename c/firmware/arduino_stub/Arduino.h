@@ -2,6 +2,7 @@
 #ifndef SAIL_ARDUINO_STUB_H
 #define SAIL_ARDUINO_STUB_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #define HIGH 1
@@ -10,6 +11,7 @@
 #define OUTPUT 1
 #define INPUT_PULLUP 2
 #define CHANGE 1
+#define FALLING 2
 
 void pinMode(uint8_t pin, uint8_t mode);
 void digitalWrite(uint8_t pin, uint8_t value);
@@ -29,6 +31,7 @@ public:
     void print(long value);
     void print(double value, int digits = 2);
     void println(const char *text = "");
+    size_t write(const uint8_t *data, size_t n);
 };
 extern StubSerial Serial;
 

@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import tempfile
 from pathlib import Path
 
 import click
 from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ..adc import PRESETS
 from ..calibration.file import Calibration
 from ..io.files import atomic_writer, check_output
-from ..rig import RigCheck, check_rig
+from ..rig import Link, RigCheck, check_rig
 from . import cli
 from ._options import load_robot, robot_option
 
@@ -23,7 +26,16 @@ def _ms(seconds: float) -> str:
 
 
 @cli.command("check-rig")
-@click.argument("recording", metavar="REC.csv", type=click.Path(dir_okay=False, exists=True, path_type=Path))
+@click.argument("recording", metavar="[REC.csv]", required=False,
+                type=click.Path(dir_okay=False, exists=True, path_type=Path))
+@click.option("--serial", "serial_port", metavar="PORT", default=None,
+              help="Read the rig live from this port instead (binary frames or text lines, told apart), for "
+                   "--seconds: adds the link's throughput and its lost and corrupt frames.")
+@click.option("--baud", type=click.IntRange(1), default=921600, show_default=True, help="--serial's baud rate.")
+@click.option("--seconds", type=click.FloatRange(0.5, 3600), default=10.0, show_default=True,
+              help="How long to read --serial.")
+@click.option("--record", "record_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              metavar="OUT.csv", help="Keep what --serial read (the multi-rate format); else it goes to a temporary file.")
 @click.option("--calibration", "cal_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="The calibration the rig will run: its ADC, and its cells' capacity for the saturation count.")
 @click.option("--adc", "adc_name", type=click.Choice(tuple(PRESETS)), default=None,
@@ -31,21 +43,28 @@ def _ms(seconds: float) -> str:
 @robot_option
 @click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="OUT.json",
               help="Also write the numbers and the problems as JSON.")
-def check_rig_command(recording, cal_path, adc_name, robot_path, json_path):
+def check_rig_command(recording, serial_port, baud, seconds, record_path, cal_path, adc_name, robot_path, json_path):
     """Check a rig's recording (the multi-rate format: t_s, the angles, each cell's conversions, loadN_t_s if
-    stamped) against its ADC and calibration.
+    stamped), or the rig itself on --serial PORT, against its ADC and calibration.
 
     It measures each cell's conversion rate against the ADC's nominal rate,
     its jitter, missed conversions and saturations, the skew between the two
     cells and its drift, and the ticks' period, jitter, gaps, steps back in
-    time, rows that are not readings and encoder jumps.  One screen of
-    results; --json writes them.  Exit code 1 when the rig cannot meet an
-    assumption of the calibration or the estimate, each one said.
+    time, rows that are not readings and encoder jumps; with a device_status
+    column (the firmware's frames), the ticks with each flag; live, the
+    link's bytes and rows a second and its lost and corrupt frames.  One
+    screen of results; --json writes them.  Exit code 1 when the rig cannot
+    meet an assumption of the calibration or the estimate, each one said.
     """
     if cal_path is not None and (adc_name is not None or robot_path is not None):
         raise click.UsageError("the calibration names its ADC: give --calibration, or --adc / --robot, not both")
-    if json_path is not None:
-        check_output(json_path, {"the recording": recording, "the --calibration file": cal_path})
+    if (recording is None) == (serial_port is None):
+        raise click.UsageError("give a recording REC.csv, or --serial PORT to read the rig live (one of them)")
+    if record_path is not None and serial_port is None:
+        raise click.UsageError("--record keeps what --serial reads: it needs --serial")
+    for path in (json_path, record_path):
+        if path is not None:
+            check_output(path, {"the recording": recording, "the --calibration file": cal_path})
     capacity = offsets = None
     if cal_path is not None:
         cal = Calibration.load(cal_path)
@@ -55,8 +74,15 @@ def check_rig_command(recording, cal_path, adc_name, robot_path, json_path):
         adc = PRESETS[adc_name]
     else:
         adc = load_robot(robot_path).adc
-    result = check_rig(recording, adc, capacity=capacity, offsets=offsets)
     console = Console()
+    with tempfile.TemporaryDirectory(prefix="sail-check-rig-") as scratch:
+        link = None
+        if serial_port is not None:
+            recording = record_path or Path(scratch) / "rig.csv"
+            link = _capture(console, serial_port, baud, seconds, recording)
+        result = check_rig(recording, adc, capacity=capacity, offsets=offsets, link=link)
+        if link is not None and record_path is None:  # the temporary file is gone: name the port
+            result = dataclasses.replace(result, source=f"{serial_port} ({seconds:g} s live)")
     _print(console, result)
     if json_path is not None:
         with atomic_writer(json_path, "w") as out:
@@ -64,6 +90,16 @@ def check_rig_command(recording, cal_path, adc_name, robot_path, json_path):
         console.print(f"wrote {json_path}", highlight=False)
     if not result.fit:
         raise SystemExit(1)
+
+
+def _capture(console: Console, port: str, baud: int, seconds: float, out: Path) -> Link:
+    from ..live.capture import capture_rig
+
+    with Progress(TextColumn("reading {task.description}"), BarColumn(), TimeRemainingColumn(), console=console,
+                  transient=True) as progress:  # fmt: skip
+        task = progress.add_task(port, total=seconds)
+        link = capture_rig(port, baud, seconds, out, progress=lambda done: progress.update(task, completed=done))
+    return link
 
 
 def _print(console: Console, r: RigCheck) -> None:
@@ -84,6 +120,14 @@ def _print(console: Console, r: RigCheck) -> None:
     console.print(f"skew cell 2 - cell 1: {_ms(r.skew_s)} (drift {drift})", highlight=False)
     console.print(f"ticks: {r.tick_Hz:.5g} Hz, jitter {_ms(r.tick_jitter_s)} rms, {r.gaps} gaps, {r.steps_back} steps "
                   f"back, {r.invalid_rows} rows not readings, {r.encoder_jumps} encoder jumps", highlight=False)  # fmt: skip
+    if r.device_status is not None:
+        flags = ", ".join(f"{name} {n:,}" for name, n in r.device_status.items())
+        console.print(f"device flags (ticks): {flags}", highlight=False, soft_wrap=True)
+    if r.link is not None:
+        k = r.link
+        frames = f", {k.frames:,} frames, {k.lost:,} lost, {k.corrupt:,} corrupt" if k.binary else " (text lines)"
+        console.print(f"link {k.port}: {k.bytes_per_s:,.0f} bytes/s, {k.rows_per_s:,.1f} rows/s over {k.seconds:.3g} s"
+                      f"{frames}", highlight=False, soft_wrap=True)  # fmt: skip
     if r.fit:
         console.print("[bold green]fit[/bold green]: the rig meets the ADC's and the estimate's assumptions")
     for problem in r.problems:

@@ -41,6 +41,8 @@ CRC = struct.Struct("<H")
 VERSION = 1
 #: Without a hello: the counts per turn libsail's rate filter uses (SAIL_COUNTS_PER_TURN, 2^24).
 DEFAULT_COUNTS_PER_TURN = 2**24
+#: The device status bits of the sketch's acquisition (``SAIL_ACQ_*`` in c/examples/arduino/sail_hx711/sail_acq.h).
+DEVICE_STATUS = {0x01: "settling", 0x02: "timeout", 0x04: "encoder", 0x08: "overrun", 0x10: "saturated", 0x20: "taring"}
 #: The header of the rows :class:`FrameDecoder` gives.
 COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "load1_t_s", "load2_t_s", "device_status", "frame")
 #: A frame on the wire at most: COBS adds one byte per 254, plus the zero.

@@ -19,7 +19,14 @@ synchronous table is the ``ideal`` ADC's case) it measures:
   rows that are not readings (malformed, or an angle that is not a number),
   and encoder jumps: a joint angle that moves faster than
   :data:`~sailforce.motion.differentiate.MAX_JOINT_RATE` between two ticks
-  (missed edges, a glitch, a wrapped counter).
+  (missed edges, a glitch, a wrapped counter);
+- **the firmware's own flags**, when the recording has a ``device_status``
+  column (the binary frames', :data:`~sailforce.io.frames.DEVICE_STATUS`):
+  ticks with each bit set; a cell timing out, dropped ticks (overrun) and
+  missed encoder edges are problems;
+- **the link**, when :func:`sailforce.live.capture.capture_rig` read it from a
+  port (:class:`Link`): bytes and rows a second, and the frames lost or
+  corrupt on the way.
 
 :func:`check_rig` gives a :class:`RigCheck`; its :attr:`~RigCheck.problems`
 say, in words, each assumption that fails (an empty tuple: the rig is fit).
@@ -55,6 +62,40 @@ SIMULTANEOUS_SKEW_LIMIT = 0.05
 DEFAULT_RATE_TOLERANCE = 0.01
 #: At most this fraction of the conversions may be saturated.
 SATURATED_LIMIT = 0.001
+#: At most this fraction of a live port's frames may be lost or corrupt (each one is a tick the estimate lacks).
+LOST_FRAME_LIMIT = 0.001
+#: A live port must carry at least this fraction of the device's ticks (rows a second against the tick rate).
+THROUGHPUT_LIMIT = 0.99
+#: Device status bits that are problems whenever they show (settling and taring are the start's, and saturation
+#: is counted per cell).
+DEVICE_PROBLEMS = {
+    "timeout": "a cell gave no conversion for 3 periods on {n} ticks: a loose wire or a stopped chip",
+    "overrun": "the firmware dropped ticks {n} times: the link is too slow for its tick (the baud budget, "
+               "docs/reference/frames.md)",
+    "encoder": "an encoder missed edges on {n} ticks: its interrupt is too slow for the shaft's speed",
+}
+
+
+@dataclass(frozen=True)
+class Link:
+    """A live port's traffic over a capture (``sail check-rig --serial``)."""
+
+    port: str
+    seconds: float
+    bytes: int
+    rows: int
+    binary: bool  #: the rig's binary frames (else text lines)
+    frames: int = 0  #: good frames
+    lost: int = 0  #: ticks missing from the sequence
+    corrupt: int = 0  #: frames with a bad CRC, length or stuffing
+
+    @property
+    def bytes_per_s(self) -> float:
+        return self.bytes / self.seconds if self.seconds > 0 else math.nan
+
+    @property
+    def rows_per_s(self) -> float:
+        return self.rows / self.seconds if self.seconds > 0 else math.nan
 
 
 @dataclass(frozen=True)
@@ -88,6 +129,8 @@ class RigCheck:
     skew_s: float  #: cell 2's first conversions less cell 1's latest (median), within -T/2 .. T/2
     skew_drift: float  #: rate 2 / rate 1 - 1: how fast two free-running chips' phase slides [s per s]
     problems: tuple[str, ...]
+    device_status: dict[str, int] | None = None  #: ticks with each firmware flag set (None: no device_status column)
+    link: Link | None = None
 
     @property
     def fit(self) -> bool:
@@ -96,6 +139,8 @@ class RigCheck:
     def as_json(self) -> dict:
         out = asdict(self)
         out["cells"] = [asdict(c) for c in self.cells]
+        if self.link is not None:
+            out["link"] |= {"bytes_per_s": self.link.bytes_per_s, "rows_per_s": self.link.rows_per_s}
         out["fit"] = self.fit
         return _finite(out)
 
@@ -149,15 +194,18 @@ def _skew(first: np.ndarray, second: np.ndarray, period: float) -> float:
 
 
 def check_rig(path: str | Path, adc: ADC, *, capacity: tuple[float, float] | None = None,
-              offsets: tuple[float, float] | None = None, tick_s: float | None = None) -> RigCheck:  # fmt: skip
+              offsets: tuple[float, float] | None = None, tick_s: float | None = None,
+              link: Link | None = None) -> RigCheck:  # fmt: skip
     """Check the recording ``path`` against ``adc`` (and, from a calibration, its cells' ``capacity`` about their
-    ``offsets`` and the rate filter's tick ``tick_s``); see the module docstring."""
+    ``offsets`` and the rate filter's tick ``tick_s``; with the ``link`` it came over, its traffic); see the module
+    docstring."""
     path = Path(path)
     names = _names(path)
     if "t_s" not in names:
         raise InputError(f"{path}: sail check-rig needs t_s, the time of each tick [s] (docs/reference/multirate.md)")
     stamps = tuple(c for c in LOAD_TIME_COLUMNS if c in names)
-    values, malformed, _ = read_all(path, (*READING_COLUMNS, "t_s", *stamps))
+    flagged = ("device_status",) if "device_status" in names else ()
+    values, malformed, _ = read_all(path, (*READING_COLUMNS, "t_s", *stamps, *flagged))
     t = values["t_s"]
     valid = ~malformed & np.isfinite(t) & np.isfinite(values["theta1_deg"]) & np.isfinite(values["theta2_deg"])
     if np.count_nonzero(valid) < 3:
@@ -192,10 +240,38 @@ def check_rig(path: str | Path, adc: ADC, *, capacity: tuple[float, float] | Non
     drift = cells[1].rate_Hz / cells[0].rate_Hz - 1  # the phase slides this many seconds a second
     problems = _problems(adc, cells, tick, tick_jitter, gaps, steps_back, jumps, skew, period, tick_s,
                          int(np.count_nonzero(~valid)), t.size)  # fmt: skip
+    device = _device_flags(values["device_status"]) if flagged else None
+    for name, text in DEVICE_PROBLEMS.items():
+        if device and device[name]:
+            problems.append(text.format(n=device[name]))
+    if link is not None:
+        problems.extend(_link_problems(link, 1.0 / tick if tick > 0 else math.nan))
     return RigCheck(source=str(path), adc=adc.model, rows=int(t.size), invalid_rows=int(np.count_nonzero(~valid)),
                     tick_Hz=1.0 / tick if tick > 0 else math.nan, tick_jitter_s=tick_jitter, gaps=gaps,
                     steps_back=steps_back, encoder_jumps=jumps, cells=(cells[0], cells[1]), skew_s=skew,
-                    skew_drift=drift, problems=tuple(problems))  # fmt: skip
+                    skew_drift=drift, problems=tuple(problems), device_status=device, link=link)  # fmt: skip
+
+
+def _device_flags(status: np.ndarray) -> dict[str, int]:
+    """Ticks with each :data:`~sailforce.io.frames.DEVICE_STATUS` bit set (rows without a status count none)."""
+    from ..io.frames import DEVICE_STATUS
+
+    known = np.isfinite(status)
+    bits = np.where(known, status, 0).astype(np.int64)
+    return {name: int(np.count_nonzero(bits & bit)) for bit, name in DEVICE_STATUS.items()}
+
+
+def _link_problems(link: Link, tick_Hz: float) -> list[str]:
+    problems = []
+    sent = link.frames + link.lost
+    if link.binary and sent and link.lost > LOST_FRAME_LIMIT * sent:  # a corrupt frame is among the lost
+        problems.append(f"{link.lost} frames lost ({link.corrupt} of them corrupt) of {sent:,} on {link.port} (over "
+                        f"{LOST_FRAME_LIMIT:.1%}): a noisy cable, or a baud rate the link cannot hold")  # fmt: skip
+    if math.isfinite(tick_Hz) and link.rows_per_s < THROUGHPUT_LIMIT * tick_Hz:
+        problems.append(f"{link.port} carried {link.rows_per_s:.4g} rows/s ({link.bytes_per_s:,.0f} bytes/s) of a "
+                        f"{tick_Hz:.4g} Hz tick: the link is too slow for the stream (the baud budget, "
+                        f"docs/reference/frames.md)")  # fmt: skip
+    return problems
 
 
 def _problems(adc: ADC, cells, tick, tick_jitter, gaps, steps_back, jumps, skew, period, tick_s, invalid, rows) -> list[str]:
