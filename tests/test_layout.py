@@ -71,7 +71,7 @@ LAYERS: tuple[tuple[str, frozenset[str]], ...] = tuple((floor, frozenset(names.s
     ("kinematics (Eqs. 1, 4) and materials", "kinematics materials"),
     ("the force kernel: J^T and the 2x2 solve (Eq. 8)", "kernel"),
     ("statics (Eqs. 3, 6-8)", "statics"),
-    ("the arm, the load cell and its ADC", "arm loadcell adc"),
+    ("the arm, the load cell and its ADC, their drift", "arm loadcell adc drift"),
     ("the robot", "robot"),
     ("files, tables, the robot file; the cluster", "io distributed"),
     ("the frame model; the sensing maps", "fem sensing"),

@@ -55,10 +55,17 @@ LSL_ALSO = ("t_s",)
 @click.option("--stream", "xdf_stream", default=None, metavar="NAME",
               help="REC.xdf: the stream of readings (channels labelled theta1_deg, theta2_deg, load1, load2, others pass "
                    "through); t_s is pyxdf's synchronised, dejittered LSL time.")
+@click.option("--rezero", is_flag=True,
+              help="Re-zero the cells whenever the handle is free (a quiet window, and contact 0 if the table has a "
+                   "contact column): the offsets follow the drift, within limits; adds offset1, offset2 and rezero "
+                   "(1 where new offsets begin) before status (docs/reference/drift.md).  Needs t_s.")
+@click.option("--rezero-log", "rezero_log", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              metavar="LOG.csv", help="--rezero: write every decision, made or refused, with its time and reason.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
 def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, latency_ms, mcap_out, mcap_topics,
-                     joint_topic, load_topic, xdf_stream, quiet, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
+                     joint_topic, load_topic, xdf_stream, rezero, rezero_log, quiet, lowpass_hz, sample_rate_hz,
+                     lowpass_order):  # fmt: skip
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
     Output: each input line as it was, then fx_N, fy_N, force_N, angle_deg
@@ -104,6 +111,10 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     check_output(output, {"the input table": source, "the --calibration file": cal_path})
     if mcap_out is not None:
         check_output(mcap_out, {"the input table": source, "the --calibration file": cal_path, "-o": output})
+    if rezero_log is not None:
+        if not rezero:
+            raise click.UsageError("--rezero-log logs the re-zeros: give --rezero too")
+        check_output(rezero_log, {"the input table": source, "the --calibration file": cal_path, "-o": output})
     topics = _topics(mcap_topics)
     if (xdf_stream is not None) != (source is not None and is_xdf(source)):
         raise click.UsageError("--stream NAME picks the stream of an XDF file: give both REC.xdf and --stream"
@@ -120,6 +131,7 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     if sample_rate_hz is not None and not sample_rate_hz > 0:
         raise click.BadParameter(f"{sample_rate_hz:g} Hz is not a sample rate", param_hint="--sample-rate-Hz")
     dt = None if sample_rate_hz is None else 1.0 / sample_rate_hz
+    zero = _rezero(cal) if rezero else None
     with ExitStack() as stack:
         if not live and is_bag(source):
             source = _bag_table(source, joint_topic, load_topic, stack, console)
@@ -130,13 +142,13 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
         bag = stack.enter_context(BagWriter(mcap_out, topics)) if mcap_out is not None else None
         if live:
             counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, bag,
-                           latency_ms / 1e3)  # fmt: skip
+                           latency_ms / 1e3, zero)  # fmt: skip
         else:
             on_rows = None if bag is None else (lambda chunk, columns, status: bag.write(chunk.values, columns, status))
             unit = "rows" if is_parquet(source) else "bytes"
             with progress_bar(console, "estimating", total=input_size(source), unit=unit, quiet=quiet) as advance:
                 counts = stream_estimate(cal, source, output, lowpass=lowpass, dt=dt, on_chunk=lambda rows, size: advance(size),
-                                         on_rows=on_rows, also=BAG_ALSO if bag is not None else ())  # fmt: skip
+                                         on_rows=on_rows, also=BAG_ALSO if bag is not None else (), rezero=zero)  # fmt: skip
     if bag is not None:
         untimed = f"; {bag.untimed:,} rows without a t_s left out" if bag.untimed else ""
         console.print(f"wrote {mcap_out}: {bag.rows:,} rows on {bag.topics.wrench}, {bag.topics.joints}, "
@@ -148,6 +160,38 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
     console.print(f"{total:,} rows: {summary}" + ("" if live else f"; wrote {output}"), highlight=False)
     for line in status_reasons(cal, counts):
         console.print(line, highlight=False, soft_wrap=True)
+    if zero is not None:
+        _report_rezero(console, zero, rezero_log)
+
+
+def _rezero(cal):
+    from ..estimate.rezero import ReZero
+
+    return ReZero(lambda theta1, theta2, load1, load2: cal.estimate(theta1, theta2, load1, load2, static=True)[:2],
+                  tuple(cal.offsets))  # fmt: skip
+
+
+#: Refusals the summary lists; --rezero-log has them all.
+SHOWN_REFUSALS = 3
+
+
+def _report_rezero(console, zero, log: Path | None) -> None:
+    made = [e for e in zero.events if e.applied]
+    refused = [e for e in zero.events if not e.applied]
+    last = f"; the offsets now {zero.delta[0]:+.6g}, {zero.delta[1]:+.6g} raw from the calibration's" if made else ""
+    console.print(f"re-zero: {len(made):,} made, {len(refused):,} refused{last}", highlight=False, soft_wrap=True)
+    for event in refused[:SHOWN_REFUSALS]:
+        console.print(f"  refused at {event.t_s:.6g} s: {event.reason}", highlight=False, soft_wrap=True)
+    if len(refused) > SHOWN_REFUSALS:
+        console.print(f"  ... and {len(refused) - SHOWN_REFUSALS:,} more" + ("" if log else " (--rezero-log lists them)"),
+                      highlight=False)  # fmt: skip
+    if log is not None:
+        with atomic_writer(log, "w") as out:
+            out.write("t_s,applied,delta1,delta2,step_N,total_N,reason\n")
+            for e in zero.events:
+                reason = e.reason.replace('"', "'")
+                out.write(f'{e.t_s!r},{int(e.applied)},{e.delta[0]!r},{e.delta[1]!r},{e.step_N!r},{e.total_N!r},"{reason}"\n')
+        console.print(f"wrote {log}: {len(zero.events):,} re-zero decisions", highlight=False)
 
 
 def status_reasons(cal, counts: dict[str, int]) -> list[str]:
@@ -204,7 +248,8 @@ def _bag_table(source: Path, joint_topic: str, load_topic: str, stack: ExitStack
     return readings_parquet(readings.table, stack)
 
 
-def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, bag=None, latency_s=0.0):
+def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, bag=None, latency_s=0.0,
+          rezero=None):  # fmt: skip
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
     from ..live import sources
     from ..live.pipeline import StampedLines, bag_listener, rows_of
@@ -247,7 +292,8 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
         out = stack.enter_context(atomic_writer(output, "wb", keep_on_interrupt=True) if to_file else nullcontext(sys.stdout.buffer))
         return estimate_lines(cal, stamps.lines(blocks), lambda: out, lowpass=lowpass, source=name, dt=dt, on_motion=report,
                               on_rows=on_rows if listeners else None,
-                              also=(*BAG_ALSO, *LSL_ALSO) if bag is not None else LSL_ALSO if lsl_out else ())  # fmt: skip
+                              also=(*BAG_ALSO, *LSL_ALSO) if bag is not None else LSL_ALSO if lsl_out else (),
+                              rezero=rezero)  # fmt: skip
 
 
 def _report_frames(console, port) -> None:

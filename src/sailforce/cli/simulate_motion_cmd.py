@@ -19,7 +19,7 @@ from ..synthetic import NoiseModel, calibration_session, session_offsets
 from . import cli
 from ._options import FINITE, PrimaryOption, load_robot, robot_option
 
-SESSIONS = ("static", "free", "task")
+SESSIONS = ("static", "free", "task", "therapy")
 
 #: Motion sessions longer than this are refused: an hour at 1 kHz is 3.6 M rows, beyond any lab session.
 MAX_DURATION_S = 3600.0
@@ -28,6 +28,8 @@ MOTION_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "true_fx_
 STATIC_COLUMNS = ("theta1_deg", "theta2_deg", "load1", "load2", "fx_N", "fy_N")
 #: With a real ADC: the multi-rate format (docs/reference/multirate.md), the conversions' instants beside the loads.
 MULTIRATE_MOTION_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "load1_t_s", "load2_t_s", "true_fx_N", "true_fy_N")
+#: A therapy session: the cells' temperature and whether a hand holds the handle, beside the readings.
+THERAPY_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "temperature_C", "contact", "true_fx_N", "true_fy_N")
 MULTIRATE_STATIC_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2", "load1_t_s", "load2_t_s", "fx_N", "fy_N")
 
 
@@ -35,7 +37,8 @@ MULTIRATE_STATIC_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2",
 @robot_option
 @click.option("--session", type=click.Choice(SESSIONS), default="free", show_default=True,
               help="static: pulley-and-weights calibration poses (for `sail calibrate`); free: the motors move the "
-                   "arm, nobody holds it (for --free-motion); task: a hand pulls toward each target.")
+                   "arm, nobody holds it (for --free-motion); task: a hand pulls toward each target; therapy: "
+                   "--minutes of reaches, the handle let go now and then, the cells drifting (docs/reference/drift.md).")
 @click.option("--reach-m", "reach", cls=PrimaryOption, type=FINITE, default=0.3, show_default=True, help="Reach length [m].")
 @click.option("--reaches", type=click.IntRange(1, 10_000), default=16, show_default=True, help="Reaches, one after the other.")
 @click.option("--peak-speed-mps", "peak_speed", cls=PrimaryOption, type=FINITE, default=0.75, show_default=True,
@@ -56,13 +59,25 @@ MULTIRATE_STATIC_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2",
                    "at every tick, as before).")
 @click.option("--hold-s", "hold_s", cls=PrimaryOption, type=FINITE, default=HOLD_S, show_default=True,
               help="static, with an ADC: how long each pose and force is held [s].")
+@click.option("--minutes", type=click.FloatRange(0.1, 60.0), default=30.0, show_default=True,
+              help="therapy: the session's length [min].")
+@click.option("--release-every-s", "release_every", cls=PrimaryOption, type=FINITE, default=60.0, show_default=True,
+              help="therapy: the hand lets go of the handle at the end of every this many seconds...")
+@click.option("--release-s", "release_s", type=click.FloatRange(0.0), default=10.0, show_default=True,
+              help="therapy: ...for this long [s] (0: never).")
+@click.option("--tremor-N", "--tremor-n", "tremor_N", type=click.FloatRange(0.0), default=0.3, show_default=True,
+              help="therapy: a holding hand's tremor, rms per axis, 1-12 Hz [N].")
+@click.option("--drift/--no-drift", default=True, show_default=True,
+              help="therapy: the cells' zero and span drift with temperature, creep and warm-up (sailforce.drift's "
+                   "datasheet defaults); --no-drift for the drift-free reference.")
 @click.option("--rig", type=click.IntRange(0), default=1, show_default=True,
               help="Which simulated rig: its cells' zero offsets, the same in every session made with it.")
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="The session's noise draw.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="OUT.csv or OUT.parquet; OUT.csv.json beside it holds the truth (offsets, base parameters).")
 def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwell, stiffness, rate, encoder_bits,
-                            noise_fraction, adc_name, hold_s, rig, seed, output):  # fmt: skip
+                            noise_fraction, adc_name, hold_s, minutes, release_every, release_s, tremor_N, drift, rig,
+                            seed, output):  # fmt: skip
     """Simulate a rig's recordings: a static calibration session, or reaching movements with inertia.
 
     \b
@@ -78,7 +93,10 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
     t_s, theta1_deg, theta2_deg, load1, load2 (HX711 counts) and the hand's
     true force true_fx_N, true_fy_N.  The robot file's [handle] and [plane]
     set the handle mass and the tilt.  The static session is the
-    pulley-and-weights calibration (fx_N, fy_N the applied force).
+    pulley-and-weights calibration (fx_N, fy_N the applied force).  The
+    therapy session adds temperature_C and contact (1 while a hand holds
+    the handle); its loads drift (--no-drift: they do not), for `sail
+    estimate --rezero`.
     """
     table_format(output)
     sidecar = check_sidecar(output)
@@ -108,6 +126,10 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
             write(multirate_columns(holds, ("fx_N", "fy_N")))
         truth |= {"clocks_Hz": [c.clock.rate_Hz for c in holds.cells], "holds": int(t1.size), "hold_s": hold_s}
         rows = holds.t.size
+    elif session == "therapy":
+        rows = _therapy(robot, output, truth, adc, minutes=minutes, release_every=release_every, release_s=release_s,
+                        stiffness=stiffness, tremor_N=tremor_N, drift=drift, reach=reach, peak_speed=peak_speed,
+                        rate=rate, noise=noise, encoder_bits=encoder_bits, seed=seed, rig=rig, offsets=offsets)  # fmt: skip
     elif session == "static":
         t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=seed + 1, noise=noise, offsets=offsets)
         with numeric_table_writer(output, STATIC_COLUMNS) as write:
@@ -146,6 +168,34 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
         rows = rec.t.size
     write_json(sidecar, truth)
     console.print(f"wrote {rows:,} rows of the {session} session to {output} (the truth in {sidecar})", highlight=False)
+
+
+def _therapy(robot, output, truth, adc, *, minutes, release_every, release_s, stiffness, tremor_N, drift, reach,
+             peak_speed, rate, noise, encoder_bits, seed, rig, offsets) -> int:  # fmt: skip
+    from dataclasses import asdict
+
+    from ..drift import Drift, TemperatureProfile
+    from ..motion.session import therapy_session
+
+    if not adc.ideal:
+        raise click.UsageError(f"the therapy session simulates the ideal ADC (a reading at every tick): drift is slow "
+                               f"beside any ADC's window; leave out --adc {adc.model}")  # fmt: skip
+    if release_s >= release_every:
+        raise click.UsageError("--release-s must be shorter than --release-every-s: a hand holds the handle sometimes")
+    model, profile = (Drift() if drift else Drift.none()), TemperatureProfile()
+    s = therapy_session(robot, minutes=minutes, release_every_s=release_every, release_s=release_s,
+                        hand_stiffness=stiffness, tremor_N=tremor_N, drift=model, reach=reach, peak_speed=peak_speed,
+                        sample_rate_hz=rate, noise=noise, counts_per_rev=1 << encoder_bits, seed=seed, rig=rig,
+                        offsets=offsets)  # fmt: skip
+    r = s.recording
+    with numeric_table_writer(output, THERAPY_COLUMNS) as write:
+        write({"t_s": r.t, "theta1_deg": np.degrees(r.theta[:, 0]), "theta2_deg": np.degrees(r.theta[:, 1]),
+               "load1": r.loads[:, 0], "load2": r.loads[:, 1], "temperature_C": s.temperature_C, "contact": s.contact,
+               "true_fx_N": r.force[:, 0], "true_fy_N": r.force[:, 1]})  # fmt: skip
+    truth |= {"drift": asdict(model), "temperature": asdict(profile), "minutes": minutes,
+              "release_every_s": release_every, "release_s": release_s, "tremor_N": tremor_N, "sample_rate_Hz": rate,
+              "drift_counts_final": s.drift_counts[-1].tolist(), "drift_counts_max": np.abs(s.drift_counts).max(0).tolist()}  # fmt: skip
+    return int(r.t.size)
 
 
 def _plant_rate(control_rate: float) -> float:

@@ -27,6 +27,7 @@ from ..calibration.file import Calibration
 from ..estimate.estimator import INVALID, STATUS_NAMES
 from ..estimate.filters import LowPass
 from ..estimate.multirate import LOAD_TIME_COLUMNS, MultiRateEstimator
+from ..estimate.rezero import REZERO_COLUMNS, ReZero
 from ..io.files import atomic_writer
 from ..io.tables import (
     READING_COLUMNS,
@@ -154,6 +155,31 @@ def _heard(chunk: Chunk, motion: MotionRows | None) -> Chunk:
                                   "omega2_dps": np.degrees(motion.rate[:, 1])})  # fmt: skip
 
 
+def _rezero_needed(rezero: ReZero | None, source: object, names: list[str]) -> tuple[str, ...]:
+    """The columns a re-zero reads: ``t_s`` (required) and ``contact`` (when the table has it)."""
+    if rezero is None:
+        return ()
+    if TIME_COLUMN not in names:
+        raise TableError(f"{source}: a re-zero (--rezero) needs {TIME_COLUMN}, each row's time [s], to judge a window")
+    return (TIME_COLUMN, *(("contact",) if "contact" in names else ()))
+
+
+def _rezeroed(rezero: ReZero, chunk: Chunk, estimated: tuple[dict[str, np.ndarray], np.ndarray]):
+    """The chunk's estimate with the re-zero applied, in order, and its :data:`REZERO_COLUMNS` added."""
+    columns, status = estimated
+    v = chunk.values
+    out = rezero.process(v[TIME_COLUMN], np.radians(v["theta1_deg"]), np.radians(v["theta2_deg"]), columns["fx_N"],
+                         columns["fy_N"], status, v.get("contact"))  # fmt: skip
+    fx, fy = out["fx_N"], out["fy_N"]
+    columns = {**columns, "fx_N": fx, "fy_N": fy, "force_N": np.hypot(fx, fy), "angle_deg": np.degrees(np.arctan2(fy, fx))}
+    return columns | {name: out[name] for name in REZERO_COLUMNS}, status
+
+
+def _appended(motion: bool, multirate: bool, rezero: bool) -> tuple[str, ...]:
+    names = output_columns(motion, multirate)
+    return (*names[:-1], *REZERO_COLUMNS, names[-1]) if rezero else names
+
+
 def _chunk_output(cal: Calibration, chunk: Chunk, loads: np.ndarray, parquet: ParquetTypes | None,
                   motion: MotionRows | None = None, on_rows: RowListener | None = None,
                   estimated: tuple[dict[str, np.ndarray], np.ndarray] | None = None):  # fmt: skip
@@ -196,6 +222,7 @@ def stream_estimate(
     dt: float | None = None,
     on_rows: RowListener | None = None,
     also: tuple[str, ...] = (),
+    rezero: ReZero | None = None,
 ) -> dict[str, int]:
     """Estimate every row of ``source`` into ``destination`` (CSV or Parquet by extension), in constant memory.
 
@@ -207,8 +234,11 @@ def stream_estimate(
     subtracted; ``dt`` [s] is then the sampling period (probed from the
     first steps when None).  ``on_rows`` hears each chunk's numbers in order
     (:data:`RowListener`), with the columns of ``also`` that the table has
-    among its values (``t_s`` for a bag's stamps).  Returns the count of
-    rows per status.
+    among its values (``t_s`` for a bag's stamps).  With ``rezero``
+    (:class:`sailforce.estimate.rezero.ReZero`) the offsets are re-estimated
+    while the handle is free, in order, and each row carries the offsets in
+    use and a ``rezero`` mark; its ``events`` log the decisions.  Returns
+    the count of rows per status.
     """
     source, destination = Path(source), Path(destination)
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
@@ -220,7 +250,8 @@ def stream_estimate(
     multirate = _multirate(cal, source, names, motion, lowpass)
     needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
                                  + (multirate.needed if multirate is not None else ())
-                                 + tuple(name for name in also if name in names)))  # fmt: skip
+                                 + tuple(name for name in also if name in names)
+                                 + _rezero_needed(rezero, source, names)))  # fmt: skip
     writer = None
 
     def write(job: Future) -> None:
@@ -240,12 +271,15 @@ def stream_estimate(
     with atomic_writer(destination, "wb") as stream, ThreadPoolExecutor(WORKERS) as pool:
         try:
             if parquet is None:
-                stream.write(csv_output_header(source, header, output_columns(motion is not None, multirate is not None)))
+                stream.write(csv_output_header(source, header, _appended(motion is not None, multirate is not None,
+                                                                         rezero is not None)))  # fmt: skip
             pending: deque[Future] = deque()
 
             def submit(chunk: Chunk, rows: MotionRows | None) -> None:
                 loads = _loads(chunk.values, chunk.malformed, lowpass, rows)  # in order: the filter runs through
                 estimated = multirate.estimate(chunk, rows) if multirate is not None else None  # in order: it has state
+                if rezero is not None:  # in order too
+                    estimated = _rezeroed(rezero, chunk, estimated or _estimate(cal, chunk.values, chunk.malformed, loads, rows))
                 pending.append(pool.submit(_chunk_output, cal, chunk, loads, parquet, rows, None, estimated))
                 while len(pending) >= WORKERS:
                     write(pending.popleft())
@@ -254,7 +288,7 @@ def stream_estimate(
                 if stage is not None:
                     for chunk, rows in stage.push(job()):
                         submit(chunk, rows)
-                elif lowpass is None and multirate is None:  # chunks are independent: parse them on the workers too
+                elif lowpass is None and multirate is None and rezero is None:  # chunks are independent: parse them on the workers too
                     pending.append(pool.submit(_job_output, cal, job, parquet))
                     while len(pending) >= WORKERS:
                         write(pending.popleft())
@@ -275,7 +309,8 @@ def stream_estimate(
 def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callable[[], ByteSink], *,
                    lowpass: LowPass | None = None, source: str = "the stream", dt: float | None = None,
                    on_motion: Callable[[MotionStage | None], None] | None = None,
-                   on_rows: RowListener | None = None, also: tuple[str, ...] = ()) -> dict[str, int]:  # fmt: skip
+                   on_rows: RowListener | None = None, also: tuple[str, ...] = (),
+                   rezero: ReZero | None = None) -> dict[str, int]:  # fmt: skip
     """Live stream: a header line, then one reading per line; each estimate is written and flushed at once.
 
     ``lines`` are raw lines (bytes, line end included).  ``open_output`` is
@@ -292,7 +327,7 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     live displays and Lab Streaming Layer outlets read them there, with the
     columns of ``also`` the stream has among the values.  A sink
     whose ``discarding`` attribute is true gets no bytes while it is (the
-    rows are not formatted).
+    rows are not formatted).  ``rezero`` re-zeros as in :func:`stream_estimate`.
     """
     counts = np.zeros(len(STATUS_NAMES), dtype=np.int64)
     lines = iter(lines)
@@ -305,9 +340,10 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     multirate = _multirate(cal, source, header.names, motion, lowpass)
     needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
                                  + (multirate.needed if multirate is not None else ())
-                                 + tuple(name for name in also if name in header.names)))  # fmt: skip
+                                 + tuple(name for name in also if name in header.names)
+                                 + _rezero_needed(rezero, source, header.names)))  # fmt: skip
     out = open_output()
-    out.write(header.line + output_header(output_columns(motion is not None, multirate is not None)))
+    out.write(header.line + output_header(_appended(motion is not None, multirate is not None, rezero is not None)))
     out.flush()
     if cal.dynamics is not None and on_motion is not None:
         on_motion(stage)
@@ -316,6 +352,8 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
         nonlocal counts
         loads = _loads(chunk.values, chunk.malformed, lowpass, rows)
         estimated = multirate.estimate(chunk, rows) if multirate is not None else None
+        if rezero is not None:
+            estimated = _rezeroed(rezero, chunk, estimated or _estimate(cal, chunk.values, chunk.malformed, loads, rows))
         if _discarding(out):  # the numbers alone, for the listener
             columns, status = estimated or _estimate(cal, chunk.values, chunk.malformed, loads, rows)
             if on_rows is not None:
