@@ -136,9 +136,11 @@ enum sail_check {
     SAIL_CHECK_DYNAMICS,   /* a dynamic term with half outside 1..SAIL_MAX_HALF_WINDOW, order outside
                               0..SAIL_MAX_RATE_ORDER, or dt not positive */
     SAIL_CHECK_TOO_FEW,    /* sail_tare_finish: fewer than two finite readings seen */
-    SAIL_CHECK_ADC         /* sail_multirate_init: a period or tick not positive and finite, a delay not within a
+    SAIL_CHECK_ADC,        /* sail_multirate_init: a period or tick not positive and finite, a delay not within a
                               period, a sinc order outside 1..SAIL_MAX_SINC_ORDER, a window longer than
                               SAIL_MAX_TICKS ticks, or a tick that is not the dynamic term's dt */
+    SAIL_CHECK_POLICY      /* sail_rezero_init: a window or quiet limit not positive, blocks outside
+                              1..SAIL_REZERO_MAX_BLOCKS, or not 0 <= min_step <= max_step <= max_total */
 };
 
 /* SAIL_CHECK_OK, or the first problem found (enum sail_check).  sail_estimate reads the
@@ -409,6 +411,85 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
 int sail_multirate_step(sail_multirate_state *state, const sail_tick *in, sail_timed_force *out, sail_tick *held);
 /* At the end of a recording: the oldest tick still held, its motion unknown.  Returns 1 while there is one, then 0. */
 int sail_multirate_flush(sail_multirate_state *state, sail_timed_force *out, sail_tick *held);
+
+/* ---- automatic re-zero: each release of the handle is a free tare (cf. sailforce.estimate.rezero) ---- */
+
+/* The estimate is affine in the loads, so offsets that moved by D move it by F(o + D), the estimate of a reading
+ * o + D at the same angles: the corrected force is F - F(o + D) (one more sail_estimate per row).  Time is cut into
+ * blocks of window_s / blocks; a block is free when each of its rows is SAIL_OK and, with a contact sensor, says
+ * free.  At the end of each block the last `blocks` blocks form the window; when all are free and consecutive and
+ * the corrected force wanders by at most quiet_N there (sqrt(var fx + var fy)), nobody holds the handle, and the
+ * offsets move by W(q)^-1 of the window's mean corrected force, so that it would have read zero: made when that
+ * step is at least min_step_N, refused when it is over max_step_N (a steady hand, a knock) or when the offsets would
+ * be more than max_total_N from the calibration's as force (re-tare or recalibrate).  The next decision waits for a
+ * window wholly under the new offsets.  docs/reference/drift.md. */
+
+/* The most blocks a window is judged in. */
+#define SAIL_REZERO_MAX_BLOCKS 16
+
+typedef struct {
+    double window_s;           /* a free, quiet window this long [s] */
+    int32_t blocks;            /* judged in this many blocks, 1..SAIL_REZERO_MAX_BLOCKS */
+    double quiet_N;            /* the corrected force's wander over the window at most [N] */
+    double min_step_N;         /* a re-zero moves the estimate by at least this [N] */
+    double max_step_N;         /* and at most this [N] */
+    double max_total_N;        /* the offsets stay within this of the calibration's, as force [N] */
+} sail_rezero_policy;
+
+/* sailforce.estimate.rezero.ReZeroPolicy's defaults. */
+#define SAIL_REZERO_POLICY_DEFAULT {2.0, 8, 0.08, 0.01, 1.5, 5.0}
+
+/* What a row's contact sensor says (sail_rezero_step): none fitted, free, or held (or unknown). */
+#define SAIL_CONTACT_NONE (-1)
+#define SAIL_CONTACT_FREE 0
+#define SAIL_CONTACT_HELD 1
+
+enum sail_rezero_decision {
+    SAIL_REZERO_NONE = 0,      /* no decision at this row */
+    SAIL_REZERO_MADE,          /* the offsets moved: from the next row on */
+    SAIL_REZERO_REFUSED_STEP,  /* a quiet window, but its step is over max_step_N */
+    SAIL_REZERO_REFUSED_TOTAL  /* a quiet window, but the offsets would be over max_total_N away */
+};
+
+typedef struct {
+    int64_t index;             /* floor((t - t0) / block) */
+    double n;                  /* free rows summed */
+    double sums[6];            /* corrected fx, fy, their squares; raw fx, fy */
+    sail_real theta[2];        /* the last free row's angles */
+    int32_t free;
+} sail_rezero_block;
+
+typedef struct {
+    double t;                  /* the window's end [s]: the new offsets begin on the next row */
+    int32_t decision;          /* enum sail_rezero_decision */
+    sail_real delta[2];        /* the offsets' change from the calibration's, after it [raw] */
+    double step_N, total_N;    /* |mean corrected F| and |mean raw F| over the window [N] */
+} sail_rezero_event;
+
+typedef struct {
+    const sail_calibration *cal;
+    sail_rezero_policy policy;
+    double block_s;
+    sail_real delta[2];        /* the offsets' change from the calibration's [raw] */
+    double t0;
+    int32_t started, in_block;
+    sail_rezero_block block;   /* the block being filled */
+    sail_rezero_block window[SAIL_REZERO_MAX_BLOCKS];  /* the last whole blocks, oldest first */
+    int32_t held;              /* blocks in window */
+    int64_t wait_until;        /* the first block index a decision may end on */
+    int32_t refused;           /* the current quiet stretch's refusal is reported */
+    int32_t begins;            /* the next row is the first under new offsets */
+} sail_rezero_state;
+
+/* Returns SAIL_CHECK_OK, or SAIL_CHECK_NULL / SAIL_CHECK_POLICY.  policy NULL: SAIL_REZERO_POLICY_DEFAULT. */
+enum sail_check sail_rezero_init(sail_rezero_state *state, const sail_calibration *cal, const sail_rezero_policy *policy);
+/* One row in order: its time [s], its angles [rad], the estimate made with the calibration's offsets (corrected in
+ * place: F - F(o + D)), and its contact (SAIL_CONTACT_*).  Returns the decision the row's block ended with
+ * (SAIL_REZERO_NONE mostly), described in *event (may be NULL); *begins (may be NULL) is 1 on the first row under
+ * new offsets.  A decision is made when a row of the next block arrives: the row that ends a block starts the
+ * next one. */
+int sail_rezero_step(sail_rezero_state *state, double t, sail_real theta1, sail_real theta2, sail_force *force,
+                     int32_t contact, sail_rezero_event *event, int32_t *begins);
 
 #ifdef __cplusplus
 }

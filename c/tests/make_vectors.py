@@ -32,6 +32,10 @@ stream).  ``multirate_static.csv`` is the same without the dynamic term, and
 ``multirate_sinc3.csv`` a session of sinc^3 conversions at 320 SPS (NAU7802)
 on the same map (``cal_sinc3.h``).
 
+``rezero.csv`` and ``rezero_contact.csv`` run a drifting, held and
+released session through :class:`sailforce.estimate.rezero.ReZero`, without
+and with a contact sensor, for ``sail_rezero_step``.
+
 ``frames.csv`` holds ticks and their bytes on the wire from
 :func:`sailforce.io.frames.encode_tick` (and a hello), for the sketch's frame
 encoder (``c/tests/test_acq.c``).
@@ -161,6 +165,48 @@ def _motion_vectors(outdir: Path) -> None:
                "inertial2"], np.column_stack([t, rows, fx, fy, status, inertial]))  # fmt: skip
 
 
+def _rezero_vectors(outdir: Path) -> None:
+    """A still-ish arm under drift, held and let go, through :class:`sailforce.estimate.rezero.ReZero` on the motion
+    calibration's static map: ``rezero.csv`` without a contact sensor (contact -1), ``rezero_contact.csv`` with one.
+
+    4 minutes at 25 Hz: the offsets drift linearly (800 and -600 counts); a hand holds the handle with a tremor
+    (0.3 N white), lets go for the last 10 s of every 40, once pushes steadily (2 N, no tremor, for 30 s: refused
+    without the sensor), and there are invalid rows inside a release, a 1 s gap and rows with the contact unknown.
+    """
+    from sailforce.estimate.rezero import ReZero
+
+    cal = Calibration.load(outdir / "cal_motion.json")
+    rng = np.random.default_rng(11)
+    t = np.arange(0.0, 240.0, 0.04)
+    t = t[(t < 200.0) | (t >= 201.0)]
+    theta1 = np.radians(80.0 + 5.0 * np.sin(2 * np.pi * t / 40.0))
+    theta2 = np.radians(10.0 + 3.0 * np.cos(2 * np.pi * t / 50.0))
+    released = np.mod(t, 40.0) >= 30.0
+    steady = (t >= 120.0) & (t < 150.0) & ~released
+    true = np.where(released[:, None], 0.0, 3.0 + 0.3 * rng.normal(size=(t.size, 2)))
+    true[steady] = [2.0, 0.0]
+    drift = np.column_stack([800.0 * t / 240.0, -600.0 * t / 240.0])
+
+    def force_of(a, b, c, d):
+        return cal.estimate(a, b, c, d, static=True)[:2]
+
+    dx, dy = force_of(theta1, theta2, cal.offsets[0] + drift[:, 0], cal.offsets[1] + drift[:, 1])
+    fx = true[:, 0] + dx + 0.005 * rng.normal(size=t.size)
+    fy = true[:, 1] + dy + 0.005 * rng.normal(size=t.size)
+    status = np.zeros(t.size)
+    bad = (t >= 35.0) & (t < 35.1)
+    status[bad], fx[bad], fy[bad] = 4, np.nan, np.nan
+    contact = np.where(released, 0.0, 1.0)
+    contact[(t >= 75.0) & (t < 75.5)] = np.nan  # the sensor unknown: not free
+    for name, sensor in (("rezero", None), ("rezero_contact", contact)):
+        zero = ReZero(force_of, tuple(cal.offsets))
+        out = zero.process(t, theta1, theta2, fx, fy, status, sensor)
+        column = np.full(t.size, -1.0) if sensor is None else np.where(np.isnan(contact), 1.0, contact)
+        _write_csv(outdir / f"{name}.csv", ["t", "theta1", "theta2", "fx", "fy", "status", "contact", "fx_out", "fy_out",
+                   "begins"], np.column_stack([t, theta1, theta2, fx, fy, status, column, out["fx_N"], out["fy_N"],
+                                               out["rezero"]]))  # fmt: skip
+
+
 def _frame_vectors(outdir: Path) -> None:
     """Ticks and their bytes on the wire from :func:`sailforce.io.frames.encode_tick`, for the sketch's encoder.
 
@@ -266,6 +312,7 @@ def main(outdir: Path) -> None:
     _motion_vectors(outdir)
     _multirate_vectors(outdir)
     _frame_vectors(outdir)
+    _rezero_vectors(outdir)
     print(f"wrote libsail test vectors to {outdir}")
 
 

@@ -405,6 +405,50 @@ static void test_multirate_checks(void)
     CHECK(sail_multirate_init(&state, &cal, NULL, &adc) == SAIL_CHECK_ADC, "tick NaN");
 }
 
+static void test_rezero(void)
+{
+    /* A free handle on the pin-jointed arm whose offsets drifted by D, the readings of (0.5, -0.3) N: the first
+     * quiet window (2 s) re-zeros by exactly D (W^-1 W D), and from the next row on the estimate is zero. */
+    const sail_calibration cal = pin_calibration();
+    static sail_rezero_state state;
+    sail_rezero_policy bad = SAIL_REZERO_POLICY_DEFAULT;
+    const sail_reading drift = reading_for(&cal, 80 * PI / 180, 10 * PI / 180, 0.5, -0.3);
+    const double D[2] = {(double)(drift.load1 - cal.offset[0]), (double)(drift.load2 - cal.offset[1])};
+    int i, made = 0, first_begin = -1;
+    CHECK(sail_rezero_init(NULL, &cal, NULL) == SAIL_CHECK_NULL, "NULL state");
+    bad.blocks = SAIL_REZERO_MAX_BLOCKS + 1;
+    CHECK(sail_rezero_init(&state, &cal, &bad) == SAIL_CHECK_POLICY, "too many blocks");
+    bad.blocks = 8;
+    bad.max_step_N = 10.0; /* beyond max_total */
+    CHECK(sail_rezero_init(&state, &cal, &bad) == SAIL_CHECK_POLICY, "max_step over max_total");
+    CHECK(sail_rezero_init(&state, &cal, NULL) == SAIL_CHECK_OK, "defaults");
+    for (i = 0; i < 300; i++) { /* 3 s at 100 Hz */
+        sail_reading r = reading_for(&cal, 80 * PI / 180, 10 * PI / 180, 0.0, 0.0);
+        sail_force f;
+        sail_rezero_event event;
+        int32_t begins;
+        r.load1 += (sail_real)D[0];
+        r.load2 += (sail_real)D[1];
+        sail_estimate(&cal, &r, &f);
+        if (sail_rezero_step(&state, 0.01 * i, r.theta1, r.theta2, &f, SAIL_CONTACT_NONE, &event, &begins) ==
+            SAIL_REZERO_MADE) {
+            made++;
+            CHECK_CLOSE(event.t, 2.0, 1.0, 1e-12);
+            CHECK_CLOSE(event.delta[0], D[0], fabs(D[0]) + fabs(D[1]), SAIL_TEST_RTOL);
+            CHECK_CLOSE(event.delta[1], D[1], fabs(D[0]) + fabs(D[1]), SAIL_TEST_RTOL);
+            CHECK_CLOSE(event.step_N, hypot(0.5, 0.3), 1.0, SAIL_TEST_RTOL);
+        }
+        if (begins && first_begin < 0)
+            first_begin = i;
+        if (first_begin >= 0)
+            CHECK(fabs((double)f.fx) < 1e-4 && fabs((double)f.fy) < 1e-4, "row %d after the re-zero: %g, %g N", i,
+                  (double)f.fx, (double)f.fy);
+        else
+            CHECK(fabs((double)f.fx - 0.5) < 1e-4 && fabs((double)f.fy + 0.3) < 1e-4, "row %d: the drift before", i);
+    }
+    CHECK(made == 1 && first_begin == 200, "%d re-zeros, the first row under them %d (the 2 s mark's)", made, first_begin);
+}
+
 int main(void)
 {
     test_checks();
@@ -419,5 +463,6 @@ int main(void)
     test_lowpass_first_order();
     test_rate_filter_against_the_convolution();
     test_multirate_checks();
+    test_rezero();
     return check_report("test_api");
 }

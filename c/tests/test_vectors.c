@@ -4,6 +4,7 @@
  *   test_vectors lowpass LOWPASS.csv        sail_lowpass_process vs sailforce.estimate.LowPass
  *   test_vectors motion MOTION.csv          sail_motion_step/flush vs sailforce.estimate.estimate_moving
  *   test_vectors multirate[_static|_sinc3] MR.csv  sail_multirate_step/flush vs sailforce.estimate.multirate
+ *   test_vectors rezero REZERO.csv         sail_rezero_step vs sailforce.estimate.rezero.ReZero
  * Statuses must be identical; forces agree norm-wise, |dF| <= SAIL_TEST_RTOL |F|.
  */
 #include <stdio.h>
@@ -274,10 +275,46 @@ static int multirate_vectors(const char *path, const sail_calibration *cal, cons
     return 0;
 }
 
+/* t, theta1, theta2, fx, fy, status, contact, fx_out, fy_out, begins: sail_rezero_step vs ReZero.process. */
+static int rezero_vectors(const char *path)
+{
+    static sail_rezero_state state;
+    const int n = read_rows(path, rows, 10);
+    int i, made = 0, marked = 0, refused = 0;
+    if (n < 0)
+        return check_failures++, 1;
+    CHECK(sail_rezero_init(&state, &sail_cal_motion, NULL) == SAIL_CHECK_OK, "init");
+    for (i = 0; i < n; i++) {
+        const double *r = rows[i];
+        sail_force f;
+        sail_rezero_event event;
+        int32_t begins;
+        int decision;
+        f.fx = (sail_real)r[3];
+        f.fy = (sail_real)r[4];
+        f.status = (int32_t)r[5];
+        decision = sail_rezero_step(&state, r[0], (sail_real)r[1], (sail_real)r[2], &f, (int32_t)r[6], &event, &begins);
+        made += decision == SAIL_REZERO_MADE;
+        refused += decision == SAIL_REZERO_REFUSED_STEP || decision == SAIL_REZERO_REFUSED_TOTAL;
+        marked += begins;
+        CHECK(begins == (int32_t)r[9], "row %d: begins %d, expected %d", i + 2, (int)begins, (int)r[9]);
+        if (isnan(r[7])) {
+            CHECK(isnan(f.fx) && isnan(f.fy), "row %d: a force where Python has none", i + 2);
+        } else {
+            const double scale = hypot(r[7], r[8]) > 1.0 ? hypot(r[7], r[8]) : 1.0;
+            CHECK_CLOSE(f.fx, r[7], scale, SAIL_TEST_RTOL);
+            CHECK_CLOSE(f.fy, r[8], scale, SAIL_TEST_RTOL);
+        }
+    }
+    CHECK(made >= 3 && made == marked, "%d re-zeros made, %d rows marked", made, marked);
+    CHECK(sail_rezero_init(&state, &sail_cal_motion, NULL) == SAIL_CHECK_OK && refused <= made, "%d refused", refused);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion|multirate|multirate_static|multirate_sinc3 FILE.csv\n");
+        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion|multirate|multirate_static|multirate_sinc3|rezero FILE.csv\n");
         return 2;
     }
     if (!strcmp(argv[1], "matrix"))
@@ -294,6 +331,8 @@ int main(int argc, char **argv)
         multirate_vectors(argv[2], &sail_cal_multirate, NULL, &sail_cal_multirate_adc);
     else if (!strcmp(argv[1], "multirate_sinc3"))
         multirate_vectors(argv[2], &sail_cal_sinc3, NULL, &sail_cal_sinc3_adc);
+    else if (!strcmp(argv[1], "rezero"))
+        rezero_vectors(argv[2]);
     else {
         fprintf(stderr, "unknown vector set %s\n", argv[1]);
         return 2;

@@ -56,6 +56,10 @@ LIBSAIL_NAMES = frozenset("""
     SAIL_MAX_SINC_ORDER SAIL_MAX_TICKS SAIL_PERIOD_MEMORY SAIL_MISSED_CONVERSION SAIL_GAP_STEPS SAIL_HISTORY
     SAIL_CHECK_ADC sail_adc sail_tick sail_timed_force sail_adc_tick sail_adc_cell sail_multirate_state
     sail_multirate_init sail_multirate_step sail_multirate_flush sail_rate_filter sail_check sail_status
+    SAIL_CHECK_POLICY SAIL_REZERO_MAX_BLOCKS SAIL_REZERO_POLICY_DEFAULT SAIL_CONTACT_NONE SAIL_CONTACT_FREE
+    SAIL_CONTACT_HELD SAIL_REZERO_NONE SAIL_REZERO_MADE SAIL_REZERO_REFUSED_STEP SAIL_REZERO_REFUSED_TOTAL
+    sail_rezero_decision sail_rezero_policy sail_rezero_block sail_rezero_event sail_rezero_state sail_rezero_init
+    sail_rezero_step
     NULL offsetof size_t ptrdiff_t wchar_t max_align_t
 """.split())
 

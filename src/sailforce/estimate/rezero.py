@@ -59,6 +59,9 @@ from ..status import OK
 #: The static map: ``(fx, fy)`` of readings ``(theta1, theta2, load1, load2)``, vectorized (a calibration's
 #: ``estimate(..., static=True)`` less its status).
 ForceMap = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+#: The reading [raw] each cell is probed with to read the map W(q) off the estimate: small beside any capacity, large
+#: beside a float's rounding of the offsets (libsail's SAIL_REZERO_PROBE).
+PROBE_COUNTS = 1000.0
 #: The output columns a re-zeroed estimate adds before ``status``.
 REZERO_COLUMNS = ("offset1", "offset2", "rezero")
 
@@ -209,9 +212,10 @@ class ReZero:
         self._begins = True
 
     def _loads_of(self, theta: tuple[float, float], fx: float, fy: float) -> np.ndarray:
-        """The readings' change [raw] that the estimate at ``theta`` reads as ``(fx, fy)``: W(q)^-1 F."""
-        o = self.offsets + self.delta
-        q1, q2 = np.full(3, theta[0]), np.full(3, theta[1])
-        gx, gy = self.force_of(q1, q2, o[0] + np.array([0.0, 1.0, 0.0]), o[1] + np.array([0.0, 0.0, 1.0]))
-        w = np.array([[gx[1] - gx[0], gx[2] - gx[0]], [gy[1] - gy[0], gy[2] - gy[0]]])  # force per raw unit
+        """The readings' change [raw] that the estimate at ``theta`` reads as ``(fx, fy)``: W(q)^-1 F, with W read
+        off the estimate of :data:`PROBE_COUNTS` on each cell (the estimate is affine: F(o) = 0)."""
+        q1, q2 = np.full(2, theta[0]), np.full(2, theta[1])
+        gx, gy = self.force_of(q1, q2, self.offsets[0] + np.array([PROBE_COUNTS, 0.0]),
+                               self.offsets[1] + np.array([0.0, PROBE_COUNTS]))  # fmt: skip
+        w = np.array([[gx[0], gx[1]], [gy[0], gy[1]]]) / PROBE_COUNTS  # force per raw unit
         return np.linalg.solve(w, [fx, fy])

@@ -60,6 +60,8 @@ static sail_acq_tare tare;
 static int tared;
 #ifdef SAIL_CAL_HAS_ADC
 static sail_multirate_state estimator; /* ~12 KB with SAIL_MAX_TICKS 256 */
+static sail_rezero_state rezero;       /* the offsets follow the drift while the handle is free (docs/reference/drift.md) */
+static uint32_t rezeros;
 static uint64_t device_us;
 #else
 static sail_reading latest;
@@ -187,7 +189,7 @@ static void take_tare(const sail_frame_tick *f)
 #else
     const enum sail_check check = sail_multirate_init(&estimator, &cal, NULL, &sail_cal_adc);
 #endif
-    if (check != SAIL_CHECK_OK) {
+    if (check != SAIL_CHECK_OK || sail_rezero_init(&rezero, &cal, NULL) != SAIL_CHECK_OK) {
         Serial.println("# sail_calibration.h's ADC or dynamic term does not suit this libsail: regenerate it");
         for (;;) {
         }
@@ -205,13 +207,21 @@ static void estimate(const sail_frame_tick *f, sail_real force[2], int32_t *stat
         return;
 #ifdef SAIL_CAL_HAS_ADC
     {
-        sail_tick t;
+        sail_tick t, held;
         sail_timed_force out;
         sail_acq_reading(f, &ENCODERS, &device_us, &t);
-        if (sail_multirate_step(&estimator, &t, &out, NULL)) { /* the tick half a rate window back */
-            force[0] = out.fx;
-            force[1] = out.fy;
-            *status = out.status;
+        if (sail_multirate_step(&estimator, &t, &out, &held)) { /* the tick half a rate window back */
+            sail_force corrected;
+            corrected.fx = out.fx;
+            corrected.fy = out.fy;
+            corrected.status = out.status;
+            /* no contact sensor here: SAIL_CONTACT_NONE (pass a switch's reading if the handle has one) */
+            if (sail_rezero_step(&rezero, out.force_t, held.theta1, held.theta2, &corrected, SAIL_CONTACT_NONE, NULL,
+                                 NULL) == SAIL_REZERO_MADE)
+                rezeros++;
+            force[0] = corrected.fx;
+            force[1] = corrected.fy;
+            *status = corrected.status;
         }
     }
 #else
