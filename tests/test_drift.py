@@ -216,3 +216,90 @@ def test_rezero_options_fail_in_one_line(cal, tmp_path):
     assert alone.exit_code == 2 and "give --rezero too" in alone.output
     with pytest.raises(Exception, match="min_step_N <= max_step_N"):
         ReZeroPolicy(max_step_N=10.0, max_total_N=5.0)
+
+
+# ---- temperature: identified in the calibration, compensated in the estimate --------------------------------------
+
+
+def _warm_session(path, temperature, seed: int):
+    """A pulley-and-weights session whose cells sit at ``temperature(n)`` [°C] (zero and span drift only, the
+    datasheet defaults), with a temperature_C column: (the truth's coefficients, rows)."""
+    from sailforce.drift import cell_signs
+    from sailforce.synthetic import HX711_COUNTS_PER_MV_V, calibration_session
+
+    robot = Robot()
+    noise = NoiseModel()
+    offsets = session_offsets(robot, noise, 1)
+    t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=seed, noise=noise, offsets=offsets)
+    celsius = temperature(t1.size)
+    drift = Drift(creep=0.0, warmup=0.0)
+    rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
+    signs = cell_signs(1)
+    loads = np.round(counts + drifted(np.zeros(t1.size), counts - offsets, celsius, drift, rated, signs))
+    with open(path, "w") as out:
+        out.write("theta1_deg,theta2_deg,load1,load2,fx_N,fy_N,temperature_C\n")
+        for row in zip(np.degrees(t1), np.degrees(t2), *loads.T, fx, fy, celsius):
+            out.write(",".join(repr(float(v)) for v in row) + "\n")
+    zero = signs[:, 0] * (drift.zero_per_C * rated + drift.adc_offset_V_per_C * HX711_COUNTS_PER_V)
+    span = signs[:, 1] * drift.span_per_C + drift.adc_gain_per_C
+    return zero, span
+
+
+def test_temperature_coefficients_are_identified_and_compensated(tmp_path):
+    rng = np.random.default_rng(5)
+    zero, span = _warm_session(tmp_path / "cal.csv", lambda n: rng.uniform(18.0, 32.0, n), seed=1)
+    assert run("calibrate", tmp_path / "cal.csv", "--model", "matrix", "-o", tmp_path / "cal.json").exit_code == 0
+    cal = Calibration.load(tmp_path / "cal.json")
+    t = cal.temperature
+    assert t is not None and 18.0 < t.reference_C < 32.0
+    # the datasheet coefficients back, each within three of its standard errors; the zero's to a few per cent
+    se = cal.metrics["temperature_se"]
+    assert np.all(np.abs(np.asarray(t.zero_per_C) - zero) <= 3 * np.asarray(se["zero_per_C"]))
+    assert np.all(np.abs(np.asarray(t.span_per_C) - span) <= 3 * np.asarray(se["span_per_C"]))
+    assert np.asarray(se["zero_per_C"]) == pytest.approx(0.0, abs=0.05 * np.abs(zero).min())
+    # held-out readings at 30 °C: compensated, as good as at the reference; the same calibration blind to it, not
+    _warm_session(tmp_path / "warm.csv", lambda n: np.full(n, 30.0), seed=7)
+    blind = tmp_path / "blind.csv"
+    rows = [line.rsplit(",", 1)[0] for line in open(tmp_path / "warm.csv").read().splitlines()]
+    blind.write_text("\n".join(rows) + "\n")
+    errors = {}
+    for name, table in (("compensated", tmp_path / "warm.csv"), ("blind", blind)):
+        out = run("estimate", "--calibration", tmp_path / "cal.json", table, "-o", tmp_path / f"{name}.out.csv")
+        assert out.exit_code == 0 and ("no temperature_C column" in out.output) == (name == "blind"), out.output
+        d = np.genfromtxt(tmp_path / f"{name}.out.csv", delimiter=",", names=True, dtype=None, encoding=None)
+        errors[name] = float(np.sqrt(np.mean((d["fx_N"] - d["fx_N_1"]) ** 2 + (d["fy_N"] - d["fy_N_1"]) ** 2)))
+    fit = cal.metrics["fit_rmse_N"]
+    print("force error rms [N] at 30 degC:", errors, "fit", fit)
+    # the cells' noise floor is the fit's RMSE; 5 degC from the reference, the zero drift alone doubles the error
+    assert errors["compensated"] < 1.25 * fit and errors["blind"] > 2 * fit
+    assert cal.metrics["fit_rmse_uncompensated_N"] > 1.5 * fit
+
+
+def test_a_narrow_temperature_span_identifies_nothing_and_says_so(tmp_path):
+    _warm_session(tmp_path / "cal.csv", lambda n: np.linspace(22.0, 23.0, n), seed=1)
+    out = run("calibrate", tmp_path / "cal.csv", "--model", "matrix", "-o", tmp_path / "cal.json")
+    assert out.exit_code == 0 and "spans 1 degC, under 2" in out.output, out.output
+    assert Calibration.load(tmp_path / "cal.json").temperature is None
+
+
+def test_a_calibration_file_keeps_its_temperature_and_refuses_a_wrong_one(tmp_path):
+    import json
+
+    from sailforce.drift import TemperatureCompensation
+    from sailforce.errors import CalibrationFileError
+
+    _warm_session(tmp_path / "cal.csv", lambda n: np.linspace(15.0, 35.0, n), seed=1)
+    assert run("calibrate", tmp_path / "cal.csv", "--model", "matrix", "-o", tmp_path / "cal.json").exit_code == 0
+    cal = Calibration.load(tmp_path / "cal.json")
+    cal.save(tmp_path / "again.json")
+    assert Calibration.load(tmp_path / "again.json").temperature == cal.temperature
+    bad = cal.to_dict()
+    bad["temperature"]["span_per_C"] = [0.5, 0.0]
+    from sailforce.calibration.file import checksum
+
+    bad["checksum"] = checksum({k: v for k, v in bad.items() if k != "checksum"})
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    with pytest.raises(CalibrationFileError, match="not a load cell's"):
+        Calibration.load(tmp_path / "bad.json")
+    with pytest.raises(Exception, match="finite"):
+        TemperatureCompensation(20.0, (1.0, float("nan")), (0.0, 0.0))

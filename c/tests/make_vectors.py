@@ -36,6 +36,10 @@ on the same map (``cal_sinc3.h``).
 released session through :class:`sailforce.estimate.rezero.ReZero`, without
 and with a contact sensor, for ``sail_rezero_step``.
 
+``temperature.csv`` holds readings at temperatures and the estimate after
+:meth:`sailforce.drift.TemperatureCompensation.corrected`, for
+``sail_temperature_correct`` (``cal_temperature.h``).
+
 ``frames.csv`` holds ticks and their bytes on the wire from
 :func:`sailforce.io.frames.encode_tick` (and a hello), for the sketch's frame
 encoder (``c/tests/test_acq.c``).
@@ -163,6 +167,31 @@ def _motion_vectors(outdir: Path) -> None:
     fx, fy, status, inertial = estimate_moving(cal, cal.dynamics, t, *rows.T, dt=1.0 / MOTION_RATE_HZ)
     _write_csv(outdir / "motion.csv", ["t", "theta1", "theta2", "load1", "load2", "fx", "fy", "status", "inertial1",
                "inertial2"], np.column_stack([t, rows, fx, fy, status, inertial]))  # fmt: skip
+
+
+def _temperature_vectors(outdir: Path) -> None:
+    """The matrix calibration with temperature coefficients (``cal_temperature.h``, ``sail_cal_temperature`` and
+    ``_temperature``), and ``temperature.csv``: readings at 10..40 degC (one at a NaN temperature) with the loads
+    :meth:`sailforce.drift.TemperatureCompensation.corrected` makes of them and the estimate on those, for
+    ``sail_temperature_correct`` then ``sail_estimate``.  Loads and poses keep far from every status threshold."""
+    from sailforce.drift import TemperatureCompensation
+    from sailforce.export_c import calibration_header
+
+    cal = replace(Calibration.load(outdir / "cal_matrix.json"),
+                  temperature=TemperatureCompensation(24.0, (216.0, -217.0), (-4.5e-5, 5.5e-5)))  # fmt: skip
+    (outdir / "cal_temperature.h").write_text(calibration_header(cal, "sail_cal_temperature"))
+    rng = np.random.default_rng(13)
+    n = 200
+    lo, hi = cal.delta_range
+    theta2 = rng.uniform(-0.5, 0.5, n)
+    theta1 = theta2 + rng.uniform(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), n)
+    loads = np.asarray(cal.offsets) + rng.uniform(-1e5, 1e5, (n, 2))
+    celsius = rng.uniform(10.0, 40.0, n)
+    celsius[7] = np.nan
+    corrected = cal.temperature.corrected(loads, celsius, cal.offsets)
+    fx, fy, status = cal.estimate(theta1, theta2, corrected[:, 0], corrected[:, 1])
+    _write_csv(outdir / "temperature.csv", ["theta1", "theta2", "load1", "load2", "celsius", "fx", "fy", "status"],
+               np.column_stack([theta1, theta2, loads, celsius, fx, fy, status]))  # fmt: skip
 
 
 def _rezero_vectors(outdir: Path) -> None:
@@ -313,6 +342,7 @@ def main(outdir: Path) -> None:
     _multirate_vectors(outdir)
     _frame_vectors(outdir)
     _rezero_vectors(outdir)
+    _temperature_vectors(outdir)
     print(f"wrote libsail test vectors to {outdir}")
 
 

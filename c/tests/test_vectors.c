@@ -5,6 +5,7 @@
  *   test_vectors motion MOTION.csv          sail_motion_step/flush vs sailforce.estimate.estimate_moving
  *   test_vectors multirate[_static|_sinc3] MR.csv  sail_multirate_step/flush vs sailforce.estimate.multirate
  *   test_vectors rezero REZERO.csv         sail_rezero_step vs sailforce.estimate.rezero.ReZero
+ *   test_vectors temperature T.csv         sail_temperature_correct vs sailforce.drift.TemperatureCompensation
  * Statuses must be identical; forces agree norm-wise, |dF| <= SAIL_TEST_RTOL |F|.
  */
 #include <stdio.h>
@@ -16,6 +17,7 @@
 #include "cal_multirate.h"
 #include "cal_seed.h"
 #include "cal_sinc3.h"
+#include "cal_temperature.h"
 #include "check.h"
 #include "sail.h"
 
@@ -275,6 +277,34 @@ static int multirate_vectors(const char *path, const sail_calibration *cal, cons
     return 0;
 }
 
+/* theta1, theta2, load1, load2, celsius, fx, fy, status: sail_temperature_correct then sail_estimate vs
+ * TemperatureCompensation.corrected then Calibration.estimate. */
+static int temperature_vectors(const char *path)
+{
+    const int n = read_rows(path, rows, 8);
+    int i, invalid = 0;
+    CHECK(n >= 100, "%d vectors in %s", n, path);
+    for (i = 0; i < n; i++) {
+        sail_reading r = reading(rows[i]);
+        sail_force f;
+        const int expected = (int)rows[i][7];
+        sail_temperature_correct(&sail_cal_temperature_temperature, &sail_cal_temperature, &r, (sail_real)rows[i][4]);
+        CHECK(sail_estimate(&sail_cal_temperature, &r, &f) == expected, "row %d: status %d, Python %d", i + 2,
+              (int)f.status, expected);
+        if (expected == SAIL_INVALID) {
+            invalid++;
+            CHECK(isnan(f.fx) && isnan(f.fy), "row %d: no estimate expected", i + 2);
+        } else {
+            const double norm = hypot(rows[i][5], rows[i][6]);
+            CHECK(hypot((double)f.fx - rows[i][5], (double)f.fy - rows[i][6]) <= SAIL_TEST_RTOL * norm,
+                  "row %d: F (%.17g, %.17g), Python (%.17g, %.17g)", i + 2, (double)f.fx, (double)f.fy, rows[i][5],
+                  rows[i][6]);
+        }
+    }
+    CHECK(invalid == 1, "%d invalid rows (the NaN temperature's)", invalid);
+    return 0;
+}
+
 /* t, theta1, theta2, fx, fy, status, contact, fx_out, fy_out, begins: sail_rezero_step vs ReZero.process. */
 static int rezero_vectors(const char *path)
 {
@@ -314,7 +344,7 @@ static int rezero_vectors(const char *path)
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion|multirate|multirate_static|multirate_sinc3|rezero FILE.csv\n");
+        fprintf(stderr, "usage: test_vectors matrix|seed|lowpass|motion|multirate|multirate_static|multirate_sinc3|rezero|temperature FILE.csv\n");
         return 2;
     }
     if (!strcmp(argv[1], "matrix"))
@@ -333,6 +363,8 @@ int main(int argc, char **argv)
         multirate_vectors(argv[2], &sail_cal_sinc3, NULL, &sail_cal_sinc3_adc);
     else if (!strcmp(argv[1], "rezero"))
         rezero_vectors(argv[2]);
+    else if (!strcmp(argv[1], "temperature"))
+        temperature_vectors(argv[2]);
     else {
         fprintf(stderr, "unknown vector set %s\n", argv[1]);
         return 2;

@@ -31,6 +31,13 @@ drift together.
 The temperature follows :class:`TemperatureProfile`: the cells and the board
 warm up by ``rise_C`` with time constant ``rise_time_s`` after power-up,
 and the room drifts by ``ramp_C_per_h``.
+
+**Compensation.**  With a ``temperature_C`` column, a calibration whose data
+span at least :data:`MIN_TEMPERATURE_SPAN_C` identifies each cell's zero and
+span coefficients (:func:`fit_temperature`) and the estimate undoes them
+(:meth:`TemperatureCompensation.corrected`):
+
+    r' = o + (r - o - a (T - T_ref)) / (1 + b (T - T_ref)).
 """
 
 from __future__ import annotations
@@ -83,6 +90,65 @@ class TemperatureProfile:
     def at(self, t) -> np.ndarray:
         t = np.asarray(t, float)
         return self.start_C + self.rise_C * (1.0 - np.exp(-t / self.rise_time_s)) + self.ramp_C_per_h * t / 3600.0
+
+
+#: Calibration data must span at least this many degrees for its temperature coefficients to be identified.
+MIN_TEMPERATURE_SPAN_C = 2.0
+
+
+@dataclass(frozen=True)
+class TemperatureCompensation:
+    """Each cell's zero [raw / °C] and span [1 / °C] coefficients about ``reference_C`` (the module docstring)."""
+
+    reference_C: float
+    zero_per_C: tuple[float, float]
+    span_per_C: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        values = (self.reference_C, *self.zero_per_C, *self.span_per_C)
+        if len(self.zero_per_C) != 2 or len(self.span_per_C) != 2 or not all(np.isfinite(values)):
+            raise InputError(f"temperature coefficients must be finite numbers, two of each: {self}")
+
+    def corrected(self, loads, temperature, offsets) -> np.ndarray:
+        """``(n, 2)`` loads as they would read at ``reference_C``, from ``loads`` ``(n, 2)`` at ``temperature``
+        ``(n,)`` [°C]; a row whose temperature is not a number keeps NaN loads (its estimate is invalid)."""
+        loads = np.asarray(loads, float)
+        dT = (np.asarray(temperature, float) - self.reference_C)[:, None]
+        o = np.asarray(offsets, float)
+        return o + (loads - o - np.asarray(self.zero_per_C) * dT) / (1.0 + np.asarray(self.span_per_C) * dT)
+
+
+@dataclass(frozen=True)
+class TemperatureFit:
+    """What :func:`fit_temperature` identified: the coefficients, each cell's intercept (an offset change at the
+    reference) and the coefficients' standard errors (least squares: ``s^2 (X^T X)^-1``)."""
+
+    compensation: TemperatureCompensation
+    intercept: tuple[float, float]
+    zero_se: tuple[float, float]  #: [raw / °C]
+    span_se: tuple[float, float]  #: [1 / °C]
+
+
+def fit_temperature(temperature, loads, signal, offsets) -> TemperatureFit:
+    """The coefficients that best explain ``loads - offsets - signal`` (``(n, 2)`` each: the readings, and the signal
+    the calibrated map predicts for the applied forces) as ``c + a dT + b dT signal``, by least squares per cell,
+    ``dT`` from the median temperature.  The span coefficient rests on ``dT signal``'s spread against the map's own
+    error, so it is the less certain of the two: see its standard error."""
+    temperature = np.asarray(temperature, float)
+    signal = np.asarray(signal, float)
+    reference = float(np.median(temperature))
+    dT = temperature - reference
+    residual = np.asarray(loads, float) - np.asarray(offsets, float) - signal
+    coefficients, errors = np.zeros((2, 3)), np.zeros((2, 3))
+    for i in range(2):
+        design = np.column_stack([np.ones_like(dT), dT, dT * signal[:, i]])
+        coefficients[i], rss, *_ = np.linalg.lstsq(design, residual[:, i], rcond=None)
+        dof = max(dT.size - 3, 1)
+        sigma2 = float(rss[0]) / dof if np.size(rss) else 0.0
+        errors[i] = np.sqrt(np.diag(sigma2 * np.linalg.pinv(design.T @ design)))
+    pair = lambda k, a: (float(a[0, k]), float(a[1, k]))
+    return TemperatureFit(TemperatureCompensation(reference, pair(1, coefficients), pair(2, coefficients)),
+                          pair(0, coefficients), pair(1, errors), pair(2, errors))  # fmt: skip
 
 
 def cell_signs(seed: int) -> np.ndarray:

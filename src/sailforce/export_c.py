@@ -59,7 +59,7 @@ LIBSAIL_NAMES = frozenset("""
     SAIL_CHECK_POLICY SAIL_REZERO_MAX_BLOCKS SAIL_REZERO_POLICY_DEFAULT SAIL_CONTACT_NONE SAIL_CONTACT_FREE
     SAIL_CONTACT_HELD SAIL_REZERO_NONE SAIL_REZERO_MADE SAIL_REZERO_REFUSED_STEP SAIL_REZERO_REFUSED_TOTAL
     sail_rezero_decision sail_rezero_policy sail_rezero_block sail_rezero_event sail_rezero_state sail_rezero_init
-    sail_rezero_step
+    sail_rezero_step sail_temperature sail_temperature_correct
     NULL offsetof size_t ptrdiff_t wchar_t max_align_t
 """.split())
 
@@ -105,7 +105,8 @@ def _padded(rows: list, width: int) -> list:
 MAX_NAME_CHARS = 48
 
 
-def _check_name(name: str, lowpass: bool = False, dynamics: bool = False, adc: bool = False) -> None:
+def _check_name(name: str, lowpass: bool = False, dynamics: bool = False, adc: bool = False,
+                temperature: bool = False) -> None:  # fmt: skip
     if len(name) > MAX_NAME_CHARS:
         raise ExportError(f"--name is {len(name):,} characters long; C keeps {MAX_NAME_CHARS} at most with its suffixes "
                           "(C99: 63 significant characters); choose a shorter name")  # fmt: skip
@@ -117,6 +118,7 @@ def _check_name(name: str, lowpass: bool = False, dynamics: bool = False, adc: b
         raise ExportError(f"--name {name!r} is reserved for the C implementation (it starts with __ or _ and a capital)")
     extra = ((f"{name}_lowpass", f"{name}_lowpass_df2T") if lowpass else ()) + ((f"{name}_dynamics",) if dynamics else ())
     extra += (f"{name}_adc",) if adc else ()
+    extra += (f"{name}_temperature",) if temperature else ()
     for declared in (name, *extra):
         if declared in LIBSAIL_NAMES:
             raise ExportError(f"--name {name!r} would declare {declared}, which libsail's sail.h already declares; "
@@ -240,7 +242,7 @@ def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str 
     """
     dynamics = cal.dynamics is not None and sample_rate_hz is not None
     multirate = cal.multirate and sample_rate_hz is not None
-    _check_name(name, lowpass is not None, dynamics, multirate)
+    _check_name(name, lowpass is not None, dynamics, multirate, cal.temperature is not None)
     guard = f"SAIL_CALIBRATION_{name.upper()}_H"
     lo, hi = np.degrees(cal.delta_range)
     c = comment_text
@@ -272,4 +274,12 @@ def calibration_header(cal: Calibration, name: str = "sail_cal", *, source: str 
         text += (f"\n/* The cells' ADC ({c(cal.adc.model)}) for sail_multirate_init, with encoder ticks at {sample_rate_hz:g} Hz. */\n"
                  + _initializer("sail_adc", f"{name}_adc", adc_fields(cal, sample_rate_hz)))
         text += f"#define {name.upper()}_HAS_ADC 1\n"
+    if cal.temperature is not None:
+        t = cal.temperature
+        text += ("\n/* The cells' zero [raw/degC] and span [1/degC] coefficients, for sail_temperature_correct. */\n"
+                 + _initializer("sail_temperature", f"{name}_temperature", [
+                     ("reference_C", f"SAIL_REAL({t.reference_C!r})"),
+                     ("zero_per_C", "{" + ", ".join(f"SAIL_REAL({v!r})" for v in t.zero_per_C) + "}"),
+                     ("span_per_C", "{" + ", ".join(f"SAIL_REAL({v!r})" for v in t.span_per_C) + "}")])
+                 + f"#define {name.upper()}_HAS_TEMPERATURE 1\n")  # fmt: skip
     return text + f"\n#endif /* {guard} */\n"

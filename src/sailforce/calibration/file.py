@@ -30,6 +30,7 @@ import numpy as np
 from .._version import __version__
 from ..adc import ADC
 from ..arm import Arm
+from ..drift import TemperatureCompensation
 from ..errors import CalibrationFileError, GeometryError, InputError, SailError
 from ..estimate.dynamic import DynamicTerm
 from ..estimate.estimator import estimate_calibrated
@@ -115,6 +116,7 @@ class Calibration:
     dynamics_source: str = ""  #: "free-motion" (identified) or "prior" (from the robot file)
     adc: ADC = ADC()  #: the cells' ADC; a real one (not ``ideal``) makes estimates multi-rate (sailforce.estimate.multirate)
     adc_delay_s: float = 0.0  #: the filter's delay identified beyond the model's N T / 2 [s] (free-motion calibration)
+    temperature: TemperatureCompensation | None = None  #: the cells' zero and span per °C, when the data spanned temperatures
 
     @property
     def multirate(self) -> bool:
@@ -168,6 +170,10 @@ class Calibration:
             content["adc"] = {"model": self.adc.model, "rate_Hz": self.adc.rate_Hz, "sinc_order": self.adc.sinc_order,
                               "noise_nV": self.adc.noise_nV, "simultaneous": self.adc.simultaneous,
                               "rate_tolerance": self.adc.rate_tolerance, "delay_s": self.adc_delay_s}  # fmt: skip
+        if self.temperature is not None:
+            t = self.temperature
+            content["temperature"] = {"reference_C": t.reference_C, "zero_per_C": list(t.zero_per_C),
+                                      "span_per_C": list(t.span_per_C)}  # fmt: skip
         content["checksum"] = checksum(content)
         return content
 
@@ -252,7 +258,9 @@ class Calibration:
         if dynamics is not None and data["dynamics"].get("source", "") not in ("", *DYNAMICS_SOURCES):
             fail(f"dynamics.source {data['dynamics'].get('source')!r}: expected one of {', '.join(DYNAMICS_SOURCES)}")
         adc, adc_delay = _adc_from(data["adc"], fail) if "adc" in data else (ADC(), 0.0)
+        temperature = _temperature_from(data["temperature"], fail) if "temperature" in data else None
         return cls(arm=arm, model=model, offsets=offsets, capacity=capacity, delta_range=delta_range, adc=adc, adc_delay_s=adc_delay,
+                   temperature=temperature,
                    load_range=load_range, load_unit=text["load"],
                    metrics=data["metrics"] if isinstance(data["metrics"], dict) else {},
                    data_sha256=text["data_sha256"], created=text["created"], software=text["software"],
@@ -279,6 +287,24 @@ def _adc_from(data: object, fail: Callable[[str], NoReturn]) -> tuple[ADC, float
     if adc.ideal or not abs(delay) <= adc.period_s:
         fail(f"adc: rate_Hz {adc.rate_Hz:g} and delay_s {delay:g}: expected a real ADC and a delay within one period")
     return adc, delay
+
+
+#: A span coefficient beyond this per °C is no load cell's (the datasheets give 1e-5 to 1e-4): a corrupt file.
+MAX_SPAN_PER_C = 0.01
+
+
+def _temperature_from(data: object, fail: Callable[[str], NoReturn]) -> TemperatureCompensation:
+    if not isinstance(data, dict) or not {"reference_C", "zero_per_C", "span_per_C"} <= data.keys():
+        fail("temperature must be an object with reference_C, zero_per_C [raw/degC] and span_per_C [1/degC]")
+    try:
+        reference = _number(data, "reference_C")
+    except TypeError as exc:
+        fail(f"temperature: {exc}")
+    zero, span = _pair(data, "zero_per_C", fail), _pair(data, "span_per_C", fail)
+    if not -100.0 < reference < 200.0 or max(map(abs, span)) > MAX_SPAN_PER_C or max(map(abs, zero)) > MAX_RAW:
+        fail(f"temperature: reference {reference:g} degC, span {span} per degC or zero {zero} per degC is not a load "
+             f"cell's (span within +-{MAX_SPAN_PER_C:g} per degC)")  # fmt: skip
+    return TemperatureCompensation(reference, zero, span)
 
 
 def _check_sensing(model, capacity, delta_range, fail: Callable[[str], NoReturn]) -> None:

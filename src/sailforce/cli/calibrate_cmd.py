@@ -142,6 +142,16 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
                   f"{report.n_deltas} Δ values, Δ = {low:.4g}…{high:.4g}°")  # fmt: skip
     console.print(f"force RMSE: fit {report.fit_rmse_N:.4g} N, cross-validated {report.cv_rmse_N:.4g} N ({scores})")
     console.print(f"offsets {offsets[0]:.6g}, {offsets[1]:.6g} {load_unit}; capacity ±{capacity[0]:.4g}, ±{capacity[1]:.4g} {load_unit}")
+    if cal.temperature is not None:
+        t, (low_C, high_C) = cal.temperature, cal.metrics["temperature_range_C"]
+        se = cal.metrics["temperature_se"]
+        zero = ", ".join(f"{v:+.4g} ± {e:.2g}" for v, e in zip(t.zero_per_C, se["zero_per_C"]))
+        span = ", ".join(f"{v * 1e6:+.4g} ± {e * 1e6:.2g}" for v, e in zip(t.span_per_C, se["span_per_C"]))
+        console.print(f"temperature over {low_C:.3g}…{high_C:.3g} °C, about {t.reference_C:.4g} °C: zero {zero} "
+                      f"{load_unit}/°C, span {span} ppm/°C (fit RMSE {cal.metrics['fit_rmse_uncompensated_N']:.4g} N "
+                      "without them)", highlight=False, soft_wrap=True)  # fmt: skip
+    for note in run.notes:
+        console.print(f"[yellow]note:[/yellow] {note}", highlight=False, soft_wrap=True)
 
 
 def _print_physics(console: Console, physics) -> None:

@@ -139,6 +139,8 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
             source = readings_parquet(read_xdf(source, xdf_stream), stack)
         if cal.dynamics is not None and not live:
             _warn_if_static(console, cal, source)
+        if cal.temperature is not None and not live:
+            _warn_if_no_temperature(console, cal, source)
         bag = stack.enter_context(BagWriter(mcap_out, topics)) if mcap_out is not None else None
         if live:
             counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, bag,
@@ -221,6 +223,15 @@ def _warn_if_static(console, cal, source) -> None:
     if table_motion(cal, source, names) is None:
         console.print(f"warning: the calibration has a dynamic term, but {source} has no t_s column (nor measured "
                       "rates): the estimates are static, right only while the arm is at rest", highlight=False)  # fmt: skip
+
+
+def _warn_if_no_temperature(console, cal, source) -> None:
+    header = csv_header(source, READING_COLUMNS)
+    names = header.names if header is not None else list(parquet_schema(source, READING_COLUMNS).names)
+    if "temperature_C" not in names:
+        console.print(f"warning: the calibration has temperature coefficients (about {cal.temperature.reference_C:.4g} "
+                      f"degC), but {source} has no temperature_C column: the loads are taken as at that temperature",
+                      highlight=False, soft_wrap=True)  # fmt: skip
 
 
 def _topics(pairs) -> Topics:

@@ -212,10 +212,19 @@ class ReZero:
         self._begins = True
 
     def _loads_of(self, theta: tuple[float, float], fx: float, fy: float) -> np.ndarray:
-        """The readings' change [raw] that the estimate at ``theta`` reads as ``(fx, fy)``: W(q)^-1 F, with W read
-        off the estimate of :data:`PROBE_COUNTS` on each cell (the estimate is affine: F(o) = 0)."""
-        q1, q2 = np.full(2, theta[0]), np.full(2, theta[1])
-        gx, gy = self.force_of(q1, q2, self.offsets[0] + np.array([PROBE_COUNTS, 0.0]),
-                               self.offsets[1] + np.array([0.0, PROBE_COUNTS]))  # fmt: skip
-        w = np.array([[gx[0], gx[1]], [gy[0], gy[1]]]) / PROBE_COUNTS  # force per raw unit
+        """The readings' change [raw] that the estimate at ``theta`` reads as ``(fx, fy)``: W(q)^-1 F."""
+        w = force_per_count(self.force_of, self.offsets, np.array([theta[0]]), np.array([theta[1]]))[0]
         return np.linalg.solve(w, [fx, fy])
+
+
+def force_per_count(force_of: ForceMap, offsets, theta1, theta2) -> np.ndarray:
+    """``(n, 2, 2)``: W(q), the estimate's force [N] per raw unit of each cell at the angles ``(n,)``, read off the
+    estimate of :data:`PROBE_COUNTS` on each cell (the estimate is affine in the loads, and F(o) = 0)."""
+    theta1, theta2 = np.asarray(theta1, float), np.asarray(theta2, float)
+    n = theta1.size
+    o1, o2 = (np.full(n, float(o)) for o in offsets)
+    w = np.empty((n, 2, 2))
+    for j, (l1, l2) in enumerate(((o1 + PROBE_COUNTS, o2), (o1, o2 + PROBE_COUNTS))):
+        gx, gy = force_of(theta1, theta2, l1, l2)
+        w[:, 0, j], w[:, 1, j] = np.asarray(gx) / PROBE_COUNTS, np.asarray(gy) / PROBE_COUNTS
+    return w

@@ -14,6 +14,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Protocol
 
@@ -61,6 +62,9 @@ def _discarding(sink: ByteSink) -> bool:
 #: Receives each chunk of a live stream as it is estimated: the chunk (its ``values`` are the input's numbers,
 #: degrees as in files), the output columns (``fx_N`` ...) and the status codes, one per row, in order.
 RowListener = Callable[[Chunk, dict[str, np.ndarray], np.ndarray], None]
+
+#: The cells' temperature [°C], which a calibration with temperature coefficients compensates.
+TEMPERATURE_COLUMN = "temperature_C"
 
 #: Chunks in flight at once: estimating and formatting one chunk (numpy and
 #: Arrow release the GIL) overlaps with parsing the next and writing the last.
@@ -153,6 +157,21 @@ def _heard(chunk: Chunk, motion: MotionRows | None) -> Chunk:
         return chunk
     return replace(chunk, values={**chunk.values, "omega1_dps": np.degrees(motion.rate[:, 0]),
                                   "omega2_dps": np.degrees(motion.rate[:, 1])})  # fmt: skip
+
+
+def _temperature_needed(cal: Calibration, names: list[str]) -> tuple[str, ...]:
+    """``temperature_C`` when the calibration compensates temperature and the table has it."""
+    return (TEMPERATURE_COLUMN,) if cal.temperature is not None and TEMPERATURE_COLUMN in names else ()
+
+
+def _compensated(chunk: Chunk, cal: Calibration) -> Chunk:
+    """The chunk with its loads as at the calibration's reference temperature (when it compensates and the table
+    has ``temperature_C``; sailforce.drift.TemperatureCompensation).  The output's lines keep the raw loads."""
+    if cal.temperature is None or TEMPERATURE_COLUMN not in chunk.values:
+        return chunk
+    v = chunk.values
+    loads = cal.temperature.corrected(np.column_stack([v["load1"], v["load2"]]), v[TEMPERATURE_COLUMN], cal.offsets)
+    return replace(chunk, values={**v, "load1": loads[:, 0], "load2": loads[:, 1]})
 
 
 def _rezero_needed(rezero: ReZero | None, source: object, names: list[str]) -> tuple[str, ...]:
@@ -251,7 +270,7 @@ def stream_estimate(
     needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
                                  + (multirate.needed if multirate is not None else ())
                                  + tuple(name for name in also if name in names)
-                                 + _rezero_needed(rezero, source, names)))  # fmt: skip
+                                 + _rezero_needed(rezero, source, names) + _temperature_needed(cal, names)))  # fmt: skip
     writer = None
 
     def write(job: Future) -> None:
@@ -284,7 +303,8 @@ def stream_estimate(
                 while len(pending) >= WORKERS:
                     write(pending.popleft())
 
-            for job in chunk_jobs(source, needed):
+            for raw_job in chunk_jobs(source, needed):
+                job = raw_job if cal.temperature is None else partial(lambda j: _compensated(j(), cal), raw_job)
                 if stage is not None:
                     for chunk, rows in stage.push(job()):
                         submit(chunk, rows)
@@ -341,7 +361,7 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
     needed = tuple(dict.fromkeys(READING_COLUMNS + (motion.names if motion is not None else ())
                                  + (multirate.needed if multirate is not None else ())
                                  + tuple(name for name in also if name in header.names)
-                                 + _rezero_needed(rezero, source, header.names)))  # fmt: skip
+                                 + _rezero_needed(rezero, source, header.names) + _temperature_needed(cal, header.names)))  # fmt: skip
     out = open_output()
     out.write(header.line + output_header(_appended(motion is not None, multirate is not None, rezero is not None)))
     out.flush()
@@ -366,7 +386,8 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
         counts += chunk_counts
 
     try:
-        for chunk in csv_chunks(source, header, needed, _whole_lines(lines), fast=False):
+        for raw in csv_chunks(source, header, needed, _whole_lines(lines), fast=False):
+            chunk = _compensated(raw, cal)
             with signals_deferred():  # a row the stage has released is written before Ctrl-C acts
                 for ready in stage.push(chunk) if stage is not None else [(chunk, None)]:
                     write(*ready)

@@ -26,10 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from ..adc import ADC
-from ..calibration.file import Calibration
+from ..calibration.file import MAX_RAW, Calibration
+from ..drift import MIN_TEMPERATURE_SPAN_C, fit_temperature
 from ..errors import InputError, TableError
 from ..estimate.dynamic import DynamicTerm
 from ..estimate.multirate import LOAD_TIME_COLUMNS
+from ..estimate.rezero import force_per_count
 from ..fit.calibration import FitReport, equivalent_capacity, fit_calibration
 from ..fit.dynamic import DynamicFit, fit_dynamic_term, prior_term
 from ..fit.multirate import HoldSamples, MultiRateDynamicFit, fit_dynamic_multirate, hold_samples
@@ -40,6 +42,11 @@ from ..robot import Robot
 #: Where the readings come from: a CSV or Parquet file, or columns in memory (angles in degrees, as in the files).
 Readings = str | Path | Mapping[str, np.ndarray]
 
+#: The optional column of the cells' temperature [°C]: calibration data spanning temperatures identify their
+#: coefficients (sailforce.drift.TemperatureCompensation).
+TEMPERATURE_COLUMN = "temperature_C"
+#: Map and temperature coefficients are fitted in turn this many times (_temperature_pass).
+TEMPERATURE_PASSES = 3
 #: The columns of a free-motion recording: the time [s] and the readings.
 FREE_MOTION_COLUMNS = ("t_s",) + READING_COLUMNS
 
@@ -54,6 +61,7 @@ class CalibrationRun:
     prior: DynamicTerm | None = None  #: the robot file's predicted dynamic term, beside an identified one
     multirate: MultiRateDynamicFit | None = None  #: the same through a real ADC: with its delay and measured clocks
     holds: HoldSamples | None = None  #: a multi-rate static recording's holds, and the conversions used
+    notes: tuple[str, ...] = ()  #: what the run could not do with the data, for people (a narrow temperature span)
 
 
 def file_sha256(path: str | Path) -> str:
@@ -111,8 +119,12 @@ def calibration_run(
         raise InputError(f"dynamics = {dynamics!r}: expected 'prior' or 'none'")
     adc = robot.adc if adc is None else adc
     holds = None
+    notes: list[str] = []
+    temperature = None
     if adc.ideal:
-        values, sha256 = _columns(readings, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
+        values, sha256 = _columns(readings, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data",
+                                  optional=(TEMPERATURE_COLUMN,))  # fmt: skip
+        temperature = values.pop(TEMPERATURE_COLUMN, None)
     else:  # held poses and forces through a real ADC: one sample per hold, from its settled conversions
         values, load_t, sha256 = _multirate_columns(readings, READING_COLUMNS + REFERENCE_COLUMNS, "Calibration data")
         theta = np.radians(np.column_stack([values["theta1_deg"], values["theta2_deg"]]))
@@ -127,8 +139,20 @@ def calibration_run(
     if transduction is None and model in ("physics", "auto"):  # what the cells read: the robot file's, else the fit's default
         transduction = robot.loadcell.reading or DEFAULT_TRANSDUCTION
     theta1, theta2 = np.radians(values["theta1_deg"]), np.radians(values["theta2_deg"])
-    fitted = fit_calibration(robot.arm, theta1, theta2, values["fx_N"], values["fy_N"], values["load1"], values["load2"],
-                             kind=model, robot=robot, free=free, transduction=transduction, progress=progress)  # fmt: skip
+
+    def fit(load1, load2):
+        return fit_calibration(robot.arm, theta1, theta2, values["fx_N"], values["fy_N"], load1, load2, kind=model,
+                               robot=robot, free=free, transduction=transduction, progress=progress)  # fmt: skip
+
+    fitted = fit(values["load1"], values["load2"])
+    identified, uncompensated = None, None
+    if temperature is not None:
+        identified, corrected, note = _temperature_pass(robot, fitted, theta1, theta2, values, temperature)
+        notes.extend(note)
+        if identified is not None:
+            uncompensated = fitted.report.fit_rmse_N
+            fitted = fit(corrected[:, 0], corrected[:, 1])
+    compensation = identified.compensation if identified is not None else None
     report = fitted.report
     if capacity is None:
         capacity = tuple(equivalent_capacity(fitted.model, robot.arm, robot.loadcell.capacity_N, report.delta_range))
@@ -137,16 +161,51 @@ def calibration_run(
         arm=robot.arm, model=fitted.model, offsets=(float(fitted.offsets[0]), float(fitted.offsets[1])),
         capacity=(float(capacity[0]), float(capacity[1])), delta_range=report.model_delta_range,
         load_range=((float(loads[0].min()), float(loads[0].max())), (float(loads[1].min()), float(loads[1].max()))),
-        load_unit=load_unit, metrics=_metrics(report, model), data_sha256=sha256, adc=adc,
+        load_unit=load_unit, metrics=_metrics(report, model), data_sha256=sha256, adc=adc, temperature=compensation,
     )  # fmt: skip
+    if identified is not None:
+        cal = replace(cal, metrics={**cal.metrics, "temperature_range_C": [float(temperature.min()), float(temperature.max())],
+                                    "fit_rmse_uncompensated_N": uncompensated,
+                                    "temperature_se": {"zero_per_C": list(identified.zero_se),
+                                                       "span_per_C": list(identified.span_se)}})  # fmt: skip
     if holds is not None:
         cal = replace(cal, metrics={**cal.metrics, "holds": holds.holds, "holds_used": holds.used_holds,
                                     "conversions": list(holds.conversions), "conversions_settled": list(holds.settled)})  # fmt: skip
     if free_motion is not None:
-        return _with_dynamics(cal, report, robot, free_motion, holds)
+        return replace(_with_dynamics(cal, report, robot, free_motion, holds), notes=tuple(notes))
     if dynamics == "prior":
         cal = replace(cal, dynamics=prior_term(robot), dynamics_source="prior")
-    return CalibrationRun(cal, report, holds=holds)
+    return CalibrationRun(cal, report, holds=holds, notes=tuple(notes))
+
+
+def _temperature_pass(robot: Robot, fitted, theta1, theta2, values, temperature):
+    """The cells' temperature coefficients (:func:`sailforce.drift.fit_temperature`): ``(compensation, loads as at the
+    reference temperature (n, 2), notes)``, or ``(None, None, notes)`` when the data span too few degrees.
+
+    The signal each reading should show comes from a fitted map, and a map fitted on drifting loads is itself off
+    by the drift's share that it absorbs: so the map (a matrix fit, fast) and the coefficients are fitted in turn,
+    :data:`TEMPERATURE_PASSES` times, each map on the loads the last coefficients corrected.
+    """
+    if not np.all(np.isfinite(temperature)):
+        raise TableError(f"Calibration data: column {TEMPERATURE_COLUMN} holds a value that is not a finite number")
+    spread = float(np.ptp(temperature))
+    if spread < MIN_TEMPERATURE_SPAN_C:
+        return None, None, (f"{TEMPERATURE_COLUMN} spans {spread:.3g} degC, under {MIN_TEMPERATURE_SPAN_C:g}: no "
+                            "temperature coefficients identified (calibrate over a wider range for them)",)  # fmt: skip
+    loads = np.column_stack([values["load1"], values["load2"]])
+    force = np.column_stack([values["fx_N"], values["fy_N"]])
+    corrected = loads
+    for _ in range(TEMPERATURE_PASSES):
+        offsets = np.asarray(fitted.offsets, float)
+        provisional = Calibration(arm=robot.arm, model=fitted.model, offsets=(float(offsets[0]), float(offsets[1])),
+                                  capacity=(MAX_RAW, MAX_RAW), delta_range=fitted.report.model_delta_range)  # fmt: skip
+        w = force_per_count(lambda a, b, c, d, cal=provisional: cal.estimate(a, b, c, d)[:2], offsets, theta1, theta2)
+        signal = np.linalg.solve(w, force[..., None])[..., 0]
+        identified = fit_temperature(temperature, loads, signal, offsets)
+        corrected = identified.compensation.corrected(loads, temperature, offsets + np.asarray(identified.intercept))
+        fitted = fit_calibration(robot.arm, theta1, theta2, force[:, 0], force[:, 1], corrected[:, 0], corrected[:, 1],
+                                 kind="matrix")  # fmt: skip
+    return identified, corrected, ()
 
 
 def calibrate(readings: Readings, *, robot: Robot, model: str = "auto", free: tuple[str, ...] | None = None,
