@@ -82,14 +82,18 @@ def test_a_wall_clock_step_moves_no_stamp(monkeypatch):
 
 
 GENERATOR = textwrap.dedent("""
-    import sys, time
+    import os, sys, time
     import pylsl
-    n, latency, period = int(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
+    n, latency, period, go = int(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
     out = sys.stdout
     out.write("t_s,theta1_deg,theta2_deg,load1,load2,true_lsl\\n"); out.flush()
-    time.sleep(1.0)  # the outlet opens once the first rows are in; the test's inlet is waiting for it
     t0 = pylsl.local_clock() + 0.2
     for i in range(n):
+        if i == FIRST:  # the outlet opens on these first rows; the rest wait until the test's inlet is connected
+            deadline = time.monotonic() + 30
+            while not os.path.exists(go) and time.monotonic() < deadline:
+                time.sleep(0.01)
+            t0 = pylsl.local_clock() + 0.05 - i * period  # the stream resumes after a gap: its samples' times move on
         true = t0 + i * period  # when the sample was taken, on LSL's clock
         device = 1000.0 + (1 + 50e-6) * true  # the device's own clock: offset and drift
         while pylsl.local_clock() < true + latency:  # it arrives `latency` later
@@ -103,9 +107,11 @@ def test_estimate_lsl_out_stamps_are_the_samples_times(cals, tmp_path):
     `sail estimate - --lsl-out --source-latency-ms 15`: each LSL stamp is its sample's true time within 2 ms, and the
     outlet declares the stream's 500 Hz."""
     d, static, _ = cals
-    n, name = 1000, f"sail-lsl-{uuid.uuid4().hex[:8]}"
+    n, first, name = 1000, 40, f"sail-lsl-{uuid.uuid4().hex[:8]}"
     script = GENERATOR.replace("OFFSET1", repr(float(static.offsets[0]))).replace("OFFSET2", repr(float(static.offsets[1])))
-    generator = subprocess.Popen([sys.executable, "-c", script, str(n), "0.015", "0.002"], stdout=subprocess.PIPE)
+    script = script.replace("FIRST", str(first))
+    go = tmp_path / "inlet-connected"
+    generator = subprocess.Popen([sys.executable, "-c", script, str(n), "0.015", "0.002", str(go)], stdout=subprocess.PIPE)
     estimate = subprocess.Popen([sys.executable, "-c", "from sailforce.cli import main; main()", "estimate", "-",
                                  "--calibration", str(d / "static.json"), "--lsl-out", name, "--source-latency-ms", "15",
                                  "-o", str(tmp_path / "out.csv")], stdin=generator.stdout, stderr=subprocess.PIPE,
@@ -116,6 +122,8 @@ def test_estimate_lsl_out_stamps_are_the_samples_times(cals, tmp_path):
         assert found, "sail estimate did not publish its outlet"
         inlet = pylsl.StreamInlet(found[0], recover=False)
         assert inlet.info(WAIT_S).nominal_srate() == pytest.approx(500.0, rel=1e-3)
+        inlet.open_stream(WAIT_S)
+        go.touch()  # connected: the generator sends the rest, which the inlet must all get
         samples, stamps = _pull(inlet, n)  # until the stream ends: all it sends after connecting
         assert generator.wait(WAIT_S) == 0 and estimate.wait(WAIT_S) == 0, estimate.stderr.read()
     finally:
@@ -124,6 +132,6 @@ def test_estimate_lsl_out_stamps_are_the_samples_times(cals, tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "out.csv")))
     # an inlet gets the samples pushed while it is connected; each is its row by fx, which load1 makes unique
     true_of = {float(row["fx_N"]): float(row["true_lsl"]) for row in rows}
-    assert len(rows) == len(true_of) == n and 300 <= stamps.size <= n
+    assert len(rows) == len(true_of) == n and n - first <= stamps.size <= n
     true = np.array([true_of[fx] for fx in samples[:, 0]])
     assert np.max(np.abs(stamps - true)) <= STAMP_TOL_S

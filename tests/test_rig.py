@@ -137,7 +137,7 @@ def _serve(frames: list[bytes], per_s: float):
                 for k in range(0, len(frames), burst):
                     time.sleep(max(0.0, start + k / per_s - time.monotonic()))
                     client.sendall(b"".join(frames[k : k + burst]))
-                time.sleep(4.0)  # held open until the reader's --seconds are up
+                time.sleep(6.0)  # held open until the reader's --seconds are up
 
     thread = threading.Thread(target=send, daemon=True)
     thread.start()
@@ -155,13 +155,13 @@ def test_a_live_port_is_measured_with_its_lost_and_corrupt_frames(tmp_path):
     damaged[4] ^= 0x21
     frames[1 + corrupted] = bytes(damaged)
     url, sender = _serve(frames, per_s=1_000.0)
-    out = run("check-rig", "--serial", url, "--seconds", "3", "--adc", "hx711-80", "--record", tmp_path / "rig.csv",
+    out = run("check-rig", "--serial", url, "--seconds", "5", "--adc", "hx711-80", "--record", tmp_path / "rig.csv",
               "--json", tmp_path / "rig.json")  # fmt: skip
     sender.join(10)
     report = json.loads((tmp_path / "rig.json").read_text())
     link = report["link"]
     assert (link["binary"], link["frames"], link["lost"], link["corrupt"]) == (True, 2_398, 2, 1), out.output
-    assert 950 < link["rows_per_s"] < 1_100  # 1 kHz of ticks, timed from the first byte to the last
+    assert 900 < link["rows_per_s"] < 1_100  # 1 kHz of ticks, timed from the first byte to the last
     assert link["bytes_per_s"] == pytest.approx(33 * link["rows_per_s"], rel=0.05)
     rate1, rate2 = (c["rate_Hz"] for c in report["cells"])
     assert rate1 == pytest.approx(1e6 / 12_500, rel=1e-9) and rate2 == pytest.approx(1e6 / 12_563, rel=1e-9)
@@ -179,7 +179,7 @@ def test_a_live_port_too_slow_for_its_tick_is_said(tmp_path):
 
     frames = [encode_tick(t) for t in _device_ticks(1_000, flagged=())]
     url, sender = _serve(frames, per_s=450.0)  # a 115,200-baud link carries ~349 of 1,000 ticks a second
-    out = run("check-rig", "--serial", url, "--seconds", "3", "--adc", "hx711-80")
+    out = run("check-rig", "--serial", url, "--seconds", "4", "--adc", "hx711-80")
     sender.join(10)
     assert out.exit_code == 1
     assert "rows/s" in out.output and "the link is too slow for the stream" in out.output, out.output
