@@ -133,6 +133,7 @@ def _serve(frames: list[bytes], per_s: float):
         with server:
             client, _ = server.accept()
             with client:
+                time.sleep(0.5)  # pyserial's open() drops what came before it (reset_input_buffer): wait past it
                 start, burst = time.monotonic(), 25
                 for k in range(0, len(frames), burst):
                     time.sleep(max(0.0, start + k / per_s - time.monotonic()))
