@@ -101,15 +101,18 @@ def test_extrapolation_is_worse_at_127_5(bonded):
         assert per_pose[outside][0] > np.median(per_pose[~outside])
 
 
-@pytest.fixture(scope="module")
-def reproduced(tmp_path_factory):
-    out = tmp_path_factory.mktemp("reproduce")
-    result = CliRunner().invoke(cli, ["reproduce", "-o", str(out), "--dpi", "60"], catch_exceptions=False)
+def test_reproduce_end_to_end(tmp_path):
+    """One `sail reproduce` (its 80 s are the suite's costliest step: a module fixture would run it on each xdist
+    worker), then each check of its outputs below, in turn."""
+    result = CliRunner().invoke(cli, ["reproduce", "-o", str(tmp_path), "--dpi", "60"], catch_exceptions=False)
     assert result.exit_code == 0, result.output
-    return out, result.output
+    reproduced = tmp_path, result.output
+    for check in (_check_every_output, _check_seed_model_section, _check_results_json_schema,
+                  _check_table4_csv_matches_json, _check_report_is_self_contained_and_cites_the_seed):  # fmt: skip
+        check(reproduced)
 
 
-def test_reproduce_writes_every_output(reproduced):
+def _check_every_output(reproduced):
     out, output = reproduced
     for name in ("fig4_stress.png", "fig5_sweeps.png", "fig6_compensated.png", "table4.png", "workspace.png",
                  "table4.csv", "results.json", "report.md", "report.html"):  # fmt: skip
@@ -120,7 +123,7 @@ def test_reproduce_writes_every_output(reproduced):
     assert "study" in output and "report" in output
 
 
-def test_reproduce_seed_model_section(reproduced):
+def _check_seed_model_section(reproduced):
     """Every family fitted, each with parameters within its bounds, residuals row by row, the verdict stated."""
     from sailforce.paper.seed_model import FAMILIES, TARGET_PHASE_RMS_DEG, TARGET_SHAPE_RMS
 
@@ -152,7 +155,7 @@ def test_reproduce_without_the_seed_model(tmp_path):
     assert "## What was the seed's model?" not in (tmp_path / "report.md").read_text()
 
 
-def test_reproduce_results_json_schema(reproduced):
+def _check_results_json_schema(reproduced):
     out, _ = reproduced
     data = json.loads((out / "results.json").read_text())
     assert data["joints"] == "bonded" and data["transduction"] == "deflection"
@@ -169,7 +172,7 @@ def test_reproduce_results_json_schema(reproduced):
     assert rel["t1"] == pytest.approx(rmse["t1"] / 4.5) and rel["t2"] == pytest.approx(rmse["t2"] / 3.0)
 
 
-def test_reproduce_table4_csv_matches_json(reproduced):
+def _check_table4_csv_matches_json(reproduced):
     out, _ = reproduced
     with open(out / "table4.csv") as stream:
         rows = list(csv.DictReader(stream))
@@ -180,7 +183,7 @@ def test_reproduce_table4_csv_matches_json(reproduced):
             assert float(row[name]) == pytest.approx(entry[name], rel=1e-9)
 
 
-def test_report_is_self_contained_and_cites_the_seed(reproduced):
+def _check_report_is_self_contained_and_cites_the_seed(reproduced):
     out, _ = reproduced
     html = (out / "report.html").read_text()
     assert 'src="fig' not in html and html.count("data:image/png;base64,") == 6
