@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from sailforce.cli import cli
-from sailforce.paper.study import TABLE4_COLUMNS, Protocol, run_study
+from sailforce.paper.study import TABLE4_AGREEMENT, TABLE4_COLUMNS, Protocol, run_study, table4
 from sailforce.robot import Robot
 from sailforce.sensing.maps import torque_rows
 
@@ -48,6 +48,18 @@ def test_pin_joints_leave_nothing_to_compensate(pin):
     assert pin.rmse_before.mean < FE_RTOL * pin.torque_amplitude[1]
     assert all(fit.order == 0 for fit in pin.regressors.values())
     assert pin.matrix_compensator.order == 0
+
+
+@pytest.mark.parametrize("joints,transduction", [("bonded", "deflection"), ("spring", "bridge")])
+def test_lean_table4_is_the_studys_sinusoid_fit(joints, transduction):
+    """:func:`table4` (rows off the unit solution, both sweeps in one solve) is the study's Table 4 (sinusoid fits)."""
+    robot = Robot().with_joints(joints)
+    study = run_study(robot, transduction)
+    lean = table4(robot, transduction)
+    np.testing.assert_array_equal(lean[:, 0], study.table4[:, 0])
+    np.testing.assert_allclose(lean[:, [1, 3]], study.table4[:, [1, 3]], rtol=TABLE4_AGREEMENT)
+    phase_scale = np.abs(study.table4[:, [2, 4]]).max()
+    np.testing.assert_allclose(lean[:, [2, 4]], study.table4[:, [2, 4]], rtol=0, atol=TABLE4_AGREEMENT * max(phase_scale, 1.0))
 
 
 def test_pin_prescale_matches_the_determinate_shear(pin):

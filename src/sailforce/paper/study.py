@@ -49,6 +49,8 @@ from ..sensing.polynomial import DEFAULT_CRITERION, DEFAULT_THRESHOLD, Polynomia
 TABLE4_COLUMNS = ("delta_deg", "amplitude_1", "phase_1_deg", "amplitude_2", "phase_2_deg")
 #: How ``table4.csv`` writes its numbers: ten significant digits, beyond any fit's precision.
 TABLE4_FORMAT = "%.10g"
+#: :func:`table4` (rows from the unit solution) and the study's sinusoid fits agree to this (relative).
+TABLE4_AGREEMENT = 1e-12
 
 
 class ModelId(StrEnum):
@@ -308,13 +310,16 @@ def _curves(model: ArmModel, transduction: str, theta1, theta2, phi: np.ndarray,
 def table4(robot: Robot, transduction: str = "deflection", *, protocol: Protocol = Protocol()) -> np.ndarray:
     """Seed Table 4 of ``robot``: (n_delta, 5) :data:`TABLE4_COLUMNS` from the two sweeps alone (no validation).
 
-    The quantity :mod:`sailforce.fit.identify` fits a robot's physical parameters to.
+    The quantity :mod:`sailforce.fit.identify` fits a robot's physical parameters to, so it is lean: both
+    sweeps in one frame solve, and the sensing rows taken from the unit-load solution.  The study's
+    least-squares sinusoid fit (:func:`~sailforce.sensing.maps.sinusoid_rows`) of the noise-free curves
+    F (r_x cos phi + r_y sin phi) returns those rows exactly (to rounding), so the two agree to
+    :data:`TABLE4_AGREEMENT` (``tests/test_study.py``).
     """
-    model = build_model(robot)
-    phi = np.radians(protocol.phi_deg)
-    sweeps = (_curves(model, transduction, *protocol.sweep_poses(1), phi, protocol.force_N),
-              _curves(model, transduction, *protocol.sweep_poses(2), phi, protocol.force_N))  # fmt: skip
-    return _table4(sweeps, phi, protocol.force_N, robot.arm)
+    (t1a, t2a), (t1b, t2b) = protocol.sweep_poses(1), protocol.sweep_poses(2)
+    theta1, theta2 = np.concatenate([t1a, t1b]), np.concatenate([t2a, t2b])
+    unit = simulate_model(build_model(robot), theta1, theta2).signal(transduction)  # (n1 + n2, 2 cells, 2)
+    return table4_from_rows(robot.arm, protocol, unit[: t1a.size], unit[t1a.size :])
 
 
 def table4_from_rows(arm, protocol: Protocol, sweep1_rows: np.ndarray, sweep2_rows: np.ndarray) -> np.ndarray:
