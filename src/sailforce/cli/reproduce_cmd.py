@@ -80,18 +80,20 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
             steps[0] += 1
             progress.update(task, description=description)
 
-        run = reproduce(base, transduction=transduction, compare_joints=compare_joints, criterion=criterion,
-                        threshold=threshold, seed_model=seed_model, seed_robot=load_robot(robot_path), solid=solid,
-                        solid_mesh_size=solid_mesh_mm / 1e3, progress=step)  # fmt: skip
         from ..report.results import write_results
 
-        for k, result in enumerate(run.studies):
-            directory = output if k == 0 else output / result.robot.joints.label
-            directory.mkdir(exist_ok=True)
-            step(f"tables, {result.robot.joints.label} joints")
-            write_results(directory, result)
-            step(f"figures, {result.robot.joints.label} joints")
-            _write_figures(directory, result, dpi)
+        def write_studies(studies) -> None:  # while the seed-model families are fitted on the other cores
+            for k, result in enumerate(studies):
+                directory = output if k == 0 else output / result.robot.joints.label
+                directory.mkdir(exist_ok=True)
+                step(f"tables, {result.robot.joints.label} joints")
+                write_results(directory, result)
+                step(f"figures, {result.robot.joints.label} joints")
+                _write_figures(directory, result, dpi)
+
+        run = reproduce(base, transduction=transduction, compare_joints=compare_joints, criterion=criterion,
+                        threshold=threshold, seed_model=seed_model, seed_robot=load_robot(robot_path), solid=solid,
+                        solid_mesh_size=solid_mesh_mm / 1e3, progress=step, with_studies=write_studies)  # fmt: skip
         if run.seed_model is not None:
             from ..report.seed_model import write_seed_model
 

@@ -337,6 +337,80 @@ class Target(Protocol):
     def metrics(self, residuals: np.ndarray) -> dict[str, tuple[float, float]]: ...
 
 
+@dataclass(frozen=True)
+class Problem:
+    """One identification, ready to solve: the robot (free joints made springs), the target, the free parameters.
+
+    Picklable, so that its starts can be solved in other processes (:func:`solve_start`,
+    :func:`sailforce.paper.seed_model.fit_families`).  Made by :func:`prepare`.
+    """
+
+    robot: Robot
+    target: Target
+    params: tuple[Parameter, ...]
+
+    @property
+    def free(self) -> tuple[str, ...]:
+        return tuple(p.key for p in self.params)
+
+    @property
+    def x_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.array([p.x_bounds[0] for p in self.params]), np.array([p.x_bounds[1] for p in self.params])
+
+    def robot_at(self, x: np.ndarray) -> Robot:
+        return with_keys(self.robot, {p.key: p.from_x(v) for p, v in zip(self.params, x)})
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        return self.target.residuals(self.robot_at(x)).ravel()
+
+    def starts(self, per_parameter: int | None = None) -> np.ndarray:
+        """``(n_starts, n)``: the robot's own values (clipped to the bounds), then :func:`_starts`' grid or sample."""
+        low, high = self.x_bounds
+        first = np.clip([p.to_x(float(get_key(self.robot, p.key))) for p in self.params], low, high)
+        return np.vstack([first, _starts(low, high, STARTS if per_parameter is None else int(per_parameter))])
+
+
+def prepare(robot: Robot, target: Target, free: Sequence[str],
+            bounds: Mapping[str, tuple[float, float]] | None = None) -> Problem:  # fmt: skip
+    """The :class:`Problem` of fitting ``free`` on ``robot`` to ``target``; a target that does not fit is refused here."""
+    free = tuple(dict.fromkeys(free))
+    if not free:
+        raise IdentifyError("nothing to fit: name at least one parameter in free")
+    bounds = dict(bounds or {})
+    unknown = sorted(set(bounds) - set(free))
+    if unknown:
+        raise IdentifyError(f"bounds given for {', '.join(unknown)}, which is not free")
+    robot = with_free_springs(robot, free)
+    params = tuple(parameter(robot, key, bounds.get(key)) for key in free)
+    target.residuals(robot)  # a target that does not fit the robot (another delta grid ...) is refused here, once
+    return Problem(robot, target, params)
+
+
+def solve_start(problem: Problem, x0: np.ndarray):
+    """One start, solved to :data:`START_TOL` (at most :data:`START_MAX_NFEV` evaluations); None if its robot is invalid."""
+    try:
+        return least_squares(problem.residuals, x0, bounds=problem.x_bounds, xtol=START_TOL, ftol=START_TOL,
+                             gtol=START_TOL, max_nfev=START_MAX_NFEV)  # fmt: skip
+    except RobotFileError:  # a start whose robot is invalid (a cell that no longer fits ...): skip it
+        return None
+
+
+def best_start(results):
+    """The lowest-cost start (the first of equals), refused if none gave a valid robot."""
+    best = None
+    for fit in results:
+        if fit is not None and (best is None or fit.cost < best.cost):
+            best = fit
+    if best is None:
+        raise IdentifyError("no start gave a valid robot: narrow the bounds")
+    return best
+
+
+def polish(problem: Problem, x: np.ndarray):
+    """The best start solved on to :data:`SOLVER_TOL`."""
+    return least_squares(problem.residuals, x, bounds=problem.x_bounds, xtol=SOLVER_TOL, ftol=SOLVER_TOL, gtol=SOLVER_TOL)
+
+
 def identify(
     robot: Robot,
     target: Target,
@@ -357,51 +431,36 @@ def identify(
     ``polish``: cross-validation's refits).  Stopping once a few starts agree was
     tried and dropped: three starts can agree on a local minimum where a gain
     trades against a stiffness.  ``progress(done, total)`` is called after each start.
+
+    The steps (:func:`prepare`, :func:`solve_start`, :func:`best_start`,
+    :func:`polish`, :func:`conclude`) are public so that many fits can share a
+    pool of processes: :func:`sailforce.paper.seed_model.fit_families`.
     """
-    free = tuple(dict.fromkeys(free))
-    if not free:
-        raise IdentifyError("nothing to fit: name at least one parameter in free")
-    bounds = dict(bounds or {})
-    unknown = sorted(set(bounds) - set(free))
-    if unknown:
-        raise IdentifyError(f"bounds given for {', '.join(unknown)}, which is not free")
-    robot = with_free_springs(robot, free)
-    params = [parameter(robot, key, bounds.get(key)) for key in free]
-
-    def robot_at(x: np.ndarray) -> Robot:
-        return with_keys(robot, {p.key: p.from_x(v) for p, v in zip(params, x)})
-
-    def residuals(x: np.ndarray) -> np.ndarray:
-        return target.residuals(robot_at(x)).ravel()
-
-    low = np.array([p.x_bounds[0] for p in params])
-    high = np.array([p.x_bounds[1] for p in params])
-    first = np.clip([p.to_x(float(get_key(robot, p.key))) for p in params], low, high)
-    target.residuals(robot)  # a target that does not fit the robot (another delta grid ...) is refused here, once
-    mesh = np.vstack([first, _starts(low, high, STARTS if starts is None else int(starts))])
-    best = None
+    problem = prepare(robot, target, free, bounds)
+    mesh = problem.starts(starts)
+    results = []
     for tried, x0 in enumerate(mesh, start=1):
-        try:
-            fit = least_squares(residuals, x0, bounds=(low, high), xtol=START_TOL, ftol=START_TOL, gtol=START_TOL,
-                                max_nfev=START_MAX_NFEV)  # fmt: skip
-        except RobotFileError:  # a start whose robot is invalid (a cell that no longer fits ...): skip it
-            fit = None
-        if fit is not None and (best is None or fit.cost < best.cost):
-            best = fit
+        results.append(solve_start(problem, x0))
         if progress is not None:
             progress(tried, len(mesh))
-    if best is None:
-        raise IdentifyError("no start gave a valid robot: narrow the bounds")
-    if polish:
-        best = least_squares(residuals, best.x, bounds=(low, high), xtol=SOLVER_TOL, ftol=SOLVER_TOL, gtol=SOLVER_TOL)
-    fitted = robot_at(best.x)
+    best = best_start(results)
+    return conclude(problem, _polish(problem, best.x) if polish else best, len(mesh))
+
+
+_polish = polish  # identify's keyword ``polish`` shadows the step inside it
+
+
+def conclude(problem: Problem, best, n_starts: int) -> Identification:
+    """The :class:`Identification` at the solver's result ``best``: values, uncertainty, residuals."""
+    target, params, free = problem.target, problem.params, problem.free
+    fitted = problem.robot_at(best.x)
     values = np.array([p.from_x(v) for p, v in zip(params, best.x)])
     names: tuple[str, ...] = free
     log = np.array([p.log for p in params])
     jac, fun = best.jac, best.fun
     if isinstance(target, ReadingsTarget):
         linear = target.linear(target.signals(fitted))
-        jac, fun = _full_jacobian(target, robot_at, best.x, linear)
+        jac, fun = _full_jacobian(target, problem.robot_at, best.x, linear)
         names = (*free, "offset1", "gain1", "offset2", "gain2")
         values = np.concatenate([values, linear.ravel()])
         log = np.concatenate([log, np.zeros(4, dtype=bool)])
@@ -414,7 +473,7 @@ def identify(
         robot=fitted, names=names, values=values, standard_errors=standard_errors, correlation=correlation,
         identifiable=identifiable, collinearity=collinearity, residuals=final, residual_columns=target.columns[: final.shape[1]],
         metrics=target.metrics(final), bounds=tuple((p.low, p.high) for p in params),
-        starts=len(mesh), success=bool(best.success),
+        starts=n_starts, success=bool(best.success),
     )  # fmt: skip
 
 

@@ -47,12 +47,18 @@ class Reproduction:
 def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints: str | None = "pin",
               criterion: str = DEFAULT_CRITERION, threshold: float = DEFAULT_THRESHOLD, seed_model: bool = True,
               seed_robot: Robot | None = None, solid: bool = False, solid_mesh_size: float = DEFAULT_SOLID_MESH_SIZE,
-              progress: Callable[[str], None] | None = None) -> Reproduction:  # fmt: skip
+              progress: Callable[[str], None] | None = None, workers: int | None = None,
+              with_studies: Callable[[tuple[StudyResult, ...]], None] | None = None) -> Reproduction:  # fmt: skip
     """Run the seed's study on ``robot`` (and on its ``compare_joints`` twin), fit the seed-model families, solve the solid.
 
     ``seed_robot`` is the robot the seed-model families start from (default
     ``robot``); ``progress(step)`` hears each step as it starts (``"study, pin
-    joints"``, ``"seed model: <family>"``, ``"solid model"``).
+    joints"``, ``"solid model"``) and each seed-model family as its fit ends
+    (``"seed model: <family> fitted"``).  The families' fits run on ``workers``
+    processes (default: one per core; :func:`~sailforce.paper.seed_model.fit_families`).
+    ``with_studies(studies)``, if given, is called once the studies are done, while
+    the families are fitted (``sail reproduce`` writes the studies' tables and
+    figures then).
     """
     say = progress or (lambda step: None)
     robots = [robot] + ([robot.with_joints(compare_joints)] if compare_joints not in (None, "none", robot.joints.label) else [])
@@ -63,13 +69,17 @@ def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints:
         studies.append(run_study(each, transduction, criterion=criterion, threshold=threshold))
         seconds += time.perf_counter() - started
     fits = None
+    done = tuple(studies)
     if seed_model:
-        fits = seed_model_study(seed_robot or robot, studies[0].protocol, progress=lambda name: say(f"seed model: {name}"))
+        fits = seed_model_study(seed_robot or robot, studies[0].protocol, progress=lambda name: say(f"seed model: {name} fitted"),
+                                workers=workers, while_fitting=None if with_studies is None else lambda: with_studies(done))  # fmt: skip
+    elif with_studies is not None:
+        with_studies(done)
     solid_study = None
     if solid:
         say(f"solid model, {robot.joints.label} joints ({solid_mesh_size * 1e3:g} mm)")
         solid_study = solid_pass(robot, studies[0], solid_mesh_size)
-    return Reproduction(tuple(studies), seconds, fits, solid_study)
+    return Reproduction(done, seconds, fits, solid_study)
 
 
 def solid_pass(robot: Robot, study: StudyResult, mesh_size: float = DEFAULT_SOLID_MESH_SIZE) -> SolidStudy:
