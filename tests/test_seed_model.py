@@ -90,3 +90,72 @@ def test_a_family_recovers_the_robot_that_made_the_table():
     np.testing.assert_allclose(fit.fit.values, [300.0, 0.5], rtol=RECOVERY_RTOL)
     assert fit.meets_targets and fit.score < 1e-3
     np.testing.assert_allclose(fit.table, table4(truth), atol=1e-6)
+
+
+# --- the fits' pool and cache -------------------------------------------------------------------------------
+
+#: Two families, fitted in a second or two: enough to see order, pool and cache at work.
+_CHEAP = (Family("spring", "shared spring and l3", ("joints.stiffness", "links.l3"), fixed={"joints.model": "spring"}),
+          Family("spring, phases", "the same, phases only", ("joints.stiffness", "links.l3"),
+                 fixed={"joints.model": "spring"}, amplitude_weight=0.0))  # fmt: skip
+
+
+def _truth_table():
+    return table4(with_keys(Robot(), {"joints.model": "spring", "joints.stiffness": 300.0, "links.l3": 0.5}))
+
+
+def test_the_pool_fits_what_this_process_fits():
+    """The starts and polishes as pool tasks are the tasks identify runs in turn: the same numbers, bit for bit."""
+    here = fit_families(Robot(), _truth_table(), _CHEAP, workers=1)
+    pooled = fit_families(Robot(), _truth_table(), _CHEAP, workers=2)
+    for a, b in zip(here, pooled):
+        assert a.family == b.family
+        np.testing.assert_array_equal(a.fit.values, b.fit.values)
+        np.testing.assert_array_equal(a.fit.residuals, b.fit.residuals)
+
+
+def test_the_fit_cache_answers_a_rerun_and_only_its_own_fit(tmp_path, monkeypatch):
+    import sailforce.io.cache as cache_module
+
+    fresh = fit_families(Robot(), _truth_table(), _CHEAP, workers=1, cache_dir=tmp_path)
+    assert not any(f.cached for f in fresh) and len(list(tmp_path.glob("*.json"))) == len(_CHEAP)
+    notes: list[str] = []
+    again = fit_families(Robot(), _truth_table(), _CHEAP, workers=1, cache_dir=tmp_path, notes=notes)
+    assert all(f.cached for f in again) and notes == []
+    for a, b in zip(fresh, again):
+        np.testing.assert_array_equal(a.fit.values, b.fit.values)
+        np.testing.assert_array_equal(a.fit.standard_errors, b.fit.standard_errors)
+        assert a.seconds == b.seconds  # the time the fit took when it was made
+    # another target, another robot, other code: each is a fit of its own
+    other = _truth_table()
+    other[:, 2] += 0.1
+    assert not any(f.cached for f in fit_families(Robot(), other, _CHEAP[:1], workers=1, cache_dir=tmp_path))
+    start = with_keys(Robot(), {"links.l3": 0.4})
+    assert not any(f.cached for f in fit_families(start, _truth_table(), _CHEAP[:1], workers=1, cache_dir=tmp_path))
+    monkeypatch.setattr(cache_module, "_FINGERPRINT", "0" * 64)
+    assert not any(f.cached for f in fit_families(Robot(), _truth_table(), _CHEAP[:1], workers=1, cache_dir=tmp_path))
+
+
+def test_a_damaged_or_forged_fit_entry_is_fitted_again_with_a_note(tmp_path):
+    import hashlib
+    import json
+
+    from sailforce.io.cache import _canonical
+
+    fresh = fit_families(Robot(), _truth_table(), _CHEAP[:1], workers=1, cache_dir=tmp_path)
+    (entry,) = tmp_path.glob("*.json")
+    data = json.loads(entry.read_text())
+    # forged: other parameters under a valid checksum; the residuals evaluated afresh give it away
+    data["value"]["x"] = [v + 0.01 for v in data["value"]["x"]]
+    data.pop("sha256")
+    data["sha256"] = hashlib.sha256(_canonical(data)).hexdigest()
+    entry.write_text(json.dumps(data))
+    notes: list[str] = []
+    refit = fit_families(Robot(), _truth_table(), _CHEAP[:1], workers=1, cache_dir=tmp_path, notes=notes)
+    assert not refit[0].cached and len(notes) == 1 and "residuals are not those of its parameters" in notes[0]
+    np.testing.assert_array_equal(refit[0].fit.values, fresh[0].fit.values)
+    # damaged: a byte changed
+    entry.write_text(entry.read_text().replace('"x":[', '"x":[1,', 1))
+    notes.clear()
+    assert not fit_families(Robot(), _truth_table(), _CHEAP[:1], workers=1, cache_dir=tmp_path, notes=notes)[0].cached
+    assert len(notes) == 1 and "checksum" in notes[0]

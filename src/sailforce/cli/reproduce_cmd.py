@@ -39,13 +39,17 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
               help="A second pass with this joint model, compared in the report (skipped if equal to --joints).")
 @click.option("--dpi", type=click.IntRange(50, 600), default=DEFAULT_DPI, show_default=True, help="Figure resolution.")
 @click.option("--seed-model/--no-seed-model", default=True, show_default=True,
-              help="Fit structure families to the seed's Table 4 (\"What was the seed's model?\", about 40 s).")
+              help="Fit structure families to the seed's Table 4 (\"What was the seed's model?\"; about 25 s on two "
+              "cores, a few when cached).")
+@click.option("--no-cache", is_flag=True,
+              help="Fit the seed-model families afresh, neither reading nor writing the fit cache "
+              "($SAIL_CACHE_DIR, else ~/.cache/sailforce/fits; an entry answers only the same fit by the same code).")
 @click.option("--solid", is_flag=True,
               help="Add the gmsh + CalculiX solid's Table 4 and torque check (16 poses, cached; needs ccx).")
 @click.option("--solid-mesh-mm", type=click.FloatRange(0.25, 50.0), default=4.0, show_default=True,
               help="Element size of the solid [mm].")
 def reproduce_command(output, robot_path, joints, transduction, criterion, threshold, compare_joints, dpi, seed_model,
-                      solid, solid_mesh_mm):  # fmt: skip
+                      no_cache, solid, solid_mesh_mm):  # fmt: skip
     """Run the seed's virtual study (docs/errata.md protocol) and write a report.
 
     Stress patterns (Fig. 4), sweeps 1 and 2 (Fig. 5), Table 4 by
@@ -65,6 +69,7 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
     base = robot_with_joints(robot_path, joints, "bonded", console)
     transduction = resolve_reading(base, transduction, "deflection", console)
     output.mkdir(parents=True, exist_ok=True)
+    from ..io.cache import default_cache_dir
     from ..paper.seed_model import FAMILIES
     from ..workflows import reproduce
 
@@ -93,7 +98,9 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
 
         run = reproduce(base, transduction=transduction, compare_joints=compare_joints, criterion=criterion,
                         threshold=threshold, seed_model=seed_model, seed_robot=load_robot(robot_path), solid=solid,
-                        solid_mesh_size=solid_mesh_mm / 1e3, progress=step, with_studies=write_studies)  # fmt: skip
+                        solid_mesh_size=solid_mesh_mm / 1e3, progress=step, with_studies=write_studies,
+                        fit_cache_dir=None if no_cache else default_cache_dir("fits"))  # fmt: skip
+        print_notes(console, run.notes)
         if run.seed_model is not None:
             from ..report.seed_model import write_seed_model
 

@@ -457,7 +457,7 @@ def conclude(problem: Problem, best, n_starts: int) -> Identification:
     values = np.array([p.from_x(v) for p, v in zip(params, best.x)])
     names: tuple[str, ...] = free
     log = np.array([p.log for p in params])
-    jac, fun = best.jac, best.fun
+    jac, fun = np.ascontiguousarray(best.jac), np.asarray(best.fun)  # one memory order: the same rounding as a cached copy
     if isinstance(target, ReadingsTarget):
         linear = target.linear(target.signals(fitted))
         jac, fun = _full_jacobian(target, problem.robot_at, best.x, linear)

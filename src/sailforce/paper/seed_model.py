@@ -19,6 +19,7 @@ reproduce report needs (docs/errata.md, "What was the seed's model?"):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import multiprocessing
 import os
@@ -27,11 +28,17 @@ from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ..fit.identify import AMPLITUDE_WEIGHT, Identification, best_start, conclude, polish, prepare, solve_start
+from ..errors import CacheEntryError
+from ..fit.identify import AMPLITUDE_WEIGHT, Identification, Problem, best_start, conclude, polish, prepare, solve_start
+from ..io.cache import DiskCache, canonical_json, code_fingerprint
+from ..io.robotfile import robot_data
 from ..io.robotkeys import get_key, with_keys
 from ..robot import Robot
 from .seed import SEED_PRESCALE, SEED_REGRESSORS, SEED_RMSE, seed_table4
@@ -87,7 +94,8 @@ class FamilyFit:
     family: Family
     fit: Identification
     table: np.ndarray  #: (n, 5) the fitted model's Table 4, :data:`~sailforce.paper.study.TABLE4_COLUMNS`
-    seconds: float
+    seconds: float  #: the fit's tasks, summed (when cached: the time the fit took when it was made)
+    cached: bool = False  #: read from the fit cache (:func:`fit_families`)
 
     @property
     def meets_targets(self) -> bool:
@@ -111,6 +119,8 @@ def fit_families(
     progress: Callable[[str], None] | None = None,
     workers: int | None = None,
     while_fitting: Callable[[], None] | None = None,
+    cache_dir: Path | None = None,
+    notes: list[str] | None = None,
 ) -> tuple[FamilyFit, ...]:
     """Fit each family to ``seed_table`` starting from ``robot``; ``progress(name)`` as each family's fit is done.
 
@@ -120,31 +130,92 @@ def fit_families(
     same however many workers there are.  ``FamilyFit.seconds`` is the time its tasks took, summed.
     ``while_fitting()``, if given, runs here once the tasks are in the pool (``sail reproduce``
     draws its figures meanwhile).
+
+    With ``cache_dir``, each family's solution (the polished parameters, residuals and
+    Jacobian) is read from there when an entry answers exactly this fit, by this code
+    (:data:`FIT_FORMAT`, :func:`_fit_inputs`), and written there after fitting; what the cache
+    did that people should know (a damaged entry, a folder that cannot be written) is appended
+    to ``notes``.
     """
-    problems = [prepare(family.robot(robot), Table4Target(np.asarray(seed_table, dtype=float),
-                                 family.transduction, family.amplitude_weight, protocol), family.free)
+    problems = [prepare(family.robot(robot), Table4Target(np.asarray(seed_table, dtype=float), family.transduction,
+                                                          family.amplitude_weight, protocol), family.free)
                 for family in families]  # fmt: skip
     meshes = [problem.starts() for problem in problems]
-    workers = max(1, min(os.cpu_count() or 1, sum(len(m) for m in meshes)) if workers is None else int(workers))
-    with _pool(workers) as pool:
-        starts = [[pool.submit(_timed, solve_start, problem, x0) for x0 in mesh]
-                  for problem, mesh in zip(problems, meshes)]  # fmt: skip
+    cache = DiskCache(cache_dir, entry_format=FIT_FORMAT)
+    inputs = [_fit_inputs(family, problem, mesh) for family, problem, mesh in zip(families, problems, meshes)]
+    found = [cache.read(entry, partial(_checked_solution, problem=problem)) for entry, problem in zip(inputs, problems)]
+    todo = [k for k, hit in enumerate(found) if hit is None]
+    tasks = sum(len(meshes[k]) for k in todo)
+    workers = max(1, min(os.cpu_count() or 1, tasks) if workers is None else int(workers))
+    with _pool(workers if tasks else 1) as pool:
+        starts = {k: [pool.submit(_timed, solve_start, problems[k], x0) for x0 in meshes[k]] for k in todo}
         if while_fitting is not None:
             while_fitting()
-        polished = []
-        for problem, futures in zip(problems, starts):  # each family's polish goes in as soon as its starts are done
+        polished = {}
+        for k, futures in starts.items():  # each family's polish goes in as soon as its starts are done
             results = [future.result() for future in futures]
             best = best_start([fit for fit, _ in results])
-            polished.append((pool.submit(_timed, polish, problem, best.x), sum(t for _, t in results)))
+            polished[k] = (pool.submit(_timed, polish, problems[k], best.x), sum(t for _, t in results))
         out = []
-        for family, problem, mesh, (future, seconds) in zip(families, problems, meshes, polished):
-            best, polish_seconds = future.result()
+        for k, (family, problem, mesh) in enumerate(zip(families, problems, meshes)):
+            if k in polished:
+                future, start_seconds = polished[k]
+                best, polish_seconds = future.result()
+                seconds = start_seconds + polish_seconds
+                cache.write(inputs[k], _solution_value(best, seconds))
+            else:
+                best, seconds = found[k]  # type: ignore[misc]  # a hit is _checked_solution's pair
             fit = conclude(problem, best, len(mesh))
             table = table4(fit.robot, family.transduction, protocol=protocol)
-            out.append(FamilyFit(family, fit, table, seconds + polish_seconds))
+            out.append(FamilyFit(family, fit, table, seconds, cached=k not in polished))
             if progress is not None:
                 progress(family.name)
+    if notes is not None:
+        notes.extend(cache.notes)
     return tuple(out)
+
+
+#: The ``format`` of the fit cache's entries; bump :data:`FIT_VERSION` when what an entry holds changes.
+FIT_FORMAT = "sailforce-fit-cache"
+FIT_VERSION = 1
+#: A cached solution is taken only if its residuals, evaluated afresh, are these within this (relative to their norm).
+CACHED_RESIDUAL_RTOL = 1e-9
+
+
+def _fit_inputs(family: Family, problem: Problem, mesh: np.ndarray) -> dict:
+    """Everything that decides a family's fit, as JSON: the code itself, the robot, the target, the starts, the solver."""
+    target = problem.target
+    assert isinstance(target, Table4Target)
+    return canonical_json({
+        "kind": "seed-model family", "version": FIT_VERSION, "code": code_fingerprint(),
+        "family": {"name": family.name, "free": list(family.free), "transduction": family.transduction,
+                   "fixed": {k: v for k, v in dict(family.fixed or {}).items()}, "amplitude_weight": family.amplitude_weight},
+        "robot": robot_data(problem.robot), "target": target.table.tolist(), "protocol": dataclasses.asdict(target.protocol),
+        "bounds": [[p.low, p.high, p.log] for p in problem.params], "starts": mesh.tolist(),
+    })  # fmt: skip
+
+
+def _solution_value(best, seconds: float) -> dict:
+    return {"x": best.x.tolist(), "fun": best.fun.tolist(), "jac": np.asarray(best.jac).tolist(),
+            "success": bool(best.success), "seconds": float(seconds)}  # fmt: skip
+
+
+def _checked_solution(value: dict, problem: Problem) -> tuple[SimpleNamespace, float]:
+    """A cached solution as the solver's result and its seconds; :class:`~sailforce.errors.CacheEntryError` unless it is this problem's."""
+    n = len(problem.params)
+    x, fun, jac = (np.asarray(value[name], dtype=float) for name in ("x", "fun", "jac"))
+    low, high = problem.x_bounds
+    if x.shape != (n,) or not np.all(np.isfinite(x)) or np.any(x < low) or np.any(x > high):
+        raise CacheEntryError(f"its parameters are not {n} finite values within the bounds")
+    if fun.ndim != 1 or jac.shape != (fun.size, n) or not (np.all(np.isfinite(fun)) and np.all(np.isfinite(jac))):
+        raise CacheEntryError("its residuals or Jacobian have the wrong shape or are not finite")
+    fresh = problem.residuals(x)
+    if fresh.shape != fun.shape or float(np.linalg.norm(fresh - fun)) > CACHED_RESIDUAL_RTOL * max(float(np.linalg.norm(fresh)), 1.0):
+        raise CacheEntryError("its residuals are not those of its parameters")
+    seconds = float(value["seconds"])
+    if not (math.isfinite(seconds) and seconds >= 0):
+        raise CacheEntryError("its fit time is not a time")
+    return SimpleNamespace(x=x, fun=fun, jac=jac, success=bool(value["success"])), seconds
 
 
 def _timed(fn: Callable, *args):
@@ -176,7 +247,8 @@ def _pool(workers: int) -> Iterator:
     90 s of user time against 69 s).
     """
     if workers <= 1:
-        yield _Here()
+        with threadpool_limits(1):  # the same BLAS here as in a pool: the same rounding in the standard errors
+            yield _Here()
         return
     with threadpool_limits(1), ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                                    initializer=_one_blas_thread) as pool:  # fmt: skip
@@ -329,12 +401,14 @@ class SeedModelResult:
 
 def seed_model_study(
     robot: Robot, protocol: Protocol = Protocol(), progress: Callable[[str], None] | None = None, *,
-    workers: int | None = None, while_fitting: Callable[[], None] | None = None,
+    workers: int | None = None, while_fitting: Callable[[], None] | None = None, cache_dir: Path | None = None,
+    notes: list[str] | None = None,
 ) -> SeedModelResult:
     """Fit :data:`FAMILIES` to the seed's Table 4 from ``robot`` and run the three checks (:func:`fit_families`' options)."""
     seed = seed_table4()
     return SeedModelResult(
-        fits=fit_families(robot, seed, protocol=protocol, progress=progress, workers=workers, while_fitting=while_fitting),
+        fits=fit_families(robot, seed, protocol=protocol, progress=progress, workers=workers, while_fitting=while_fitting,
+                          cache_dir=cache_dir, notes=notes),
         drivers=phase_drivers(robot, protocol), crosstalk=pin_crosstalk(robot, protocol=protocol),
         lengths=implied_lengths(protocol), seed_pattern=phase_pattern(seed),
     )  # fmt: skip

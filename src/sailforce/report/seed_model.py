@@ -69,7 +69,7 @@ def seed_model_section(result: SeedModelResult, main: StudyResult) -> str:
              _rms(f.fit.shape_rms, percent=True), _minimum(f),
              ", ".join(n.split(".")[-2] if "stiffness" in n else n.split(".")[-1]
                        for n, ok in zip(f.fit.names, f.fit.identifiable) if not ok) or "–",
-             f"{f.seconds:.1f}"] for f in fits]  # fmt: skip
+             f"{f.seconds:.1f}" + (" (cached)" if f.cached else "")] for f in fits]  # fmt: skip
     header = ["family", "structure", "fitted (± standard error)", "phase RMS P1 / P2", "shape RMS A1 / A2",
               "A1 / A2 falls then rises", "not identifiable", "fit [s]"]  # fmt: skip
     met = [f for f in fits if f.meets_targets]
@@ -243,7 +243,8 @@ def write_seed_model(directory: Path, result: SeedModelResult, dpi: int) -> None
                                                      f.fit.identifiable, f.fit.bounds)},
              "phase_rms_deg": list(f.fit.phase_rms_deg), "shape_rms": [None if math.isnan(v) else v for v in f.fit.shape_rms],
              "meets_targets": f.meets_targets, "residual_columns": list(f.fit.residual_columns),
-             "residuals": f.fit.residuals.tolist(), "table4": f.table.tolist(), "seconds": f.seconds}
+             "residuals": f.fit.residuals.tolist(), "table4": f.table.tolist(), "seconds": f.seconds,
+             "cached": f.cached}
             for f in result.fits]  # fmt: skip
     c = result.crosstalk
     write_json(directory / "seed_model.json", {

@@ -18,7 +18,6 @@ or whose worker died; a pose that still fails comes back with its error in
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
@@ -28,6 +27,7 @@ import numpy as np
 
 from ..distributed import DEFAULT_RETRIES, run_tasks
 from ..errors import InputError
+from ..io.cache import default_cache_dir as _default_cache_dir
 from ..io.robotfile import robot_data, robot_from_data
 from ..robot import Robot
 from .arm import SolidResponse, check_joints, solve_pose
@@ -37,15 +37,11 @@ from .cell import CellDepth, calibrate_depth
 #: Bump when a change to the solid model changes its results: every cached pose is then solved again.
 #: 2: entries hold their inputs and a checksum (sailforce.solid.cache).
 MODEL_VERSION = 2
-#: The cache directory when none is given: $SAIL_CACHE_DIR, else $XDG_CACHE_HOME/sailforce/solid.
-CACHE_ENV = "SAIL_CACHE_DIR"
 
 
 def default_cache_dir() -> Path:
     """``$SAIL_CACHE_DIR``, else ``$XDG_CACHE_HOME/sailforce/solid`` (``~/.cache/sailforce/solid``)."""
-    if os.environ.get(CACHE_ENV):
-        return Path(os.environ[CACHE_ENV])
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "sailforce" / "solid"
+    return _default_cache_dir("solid")
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -42,13 +43,15 @@ class Reproduction:
     study_seconds: float  #: the studies' wall time
     seed_model: SeedModelResult | None = None
     solid: SolidStudy | None = None
+    notes: tuple[str, ...] = ()  #: what the fit cache did that people should know (a damaged entry, a folder not written)
 
 
 def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints: str | None = "pin",
               criterion: str = DEFAULT_CRITERION, threshold: float = DEFAULT_THRESHOLD, seed_model: bool = True,
               seed_robot: Robot | None = None, solid: bool = False, solid_mesh_size: float = DEFAULT_SOLID_MESH_SIZE,
               progress: Callable[[str], None] | None = None, workers: int | None = None,
-              with_studies: Callable[[tuple[StudyResult, ...]], None] | None = None) -> Reproduction:  # fmt: skip
+              with_studies: Callable[[tuple[StudyResult, ...]], None] | None = None,
+              fit_cache_dir: Path | None = None) -> Reproduction:  # fmt: skip
     """Run the seed's study on ``robot`` (and on its ``compare_joints`` twin), fit the seed-model families, solve the solid.
 
     ``seed_robot`` is the robot the seed-model families start from (default
@@ -58,7 +61,8 @@ def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints:
     processes (default: one per core; :func:`~sailforce.paper.seed_model.fit_families`).
     ``with_studies(studies)``, if given, is called once the studies are done, while
     the families are fitted (``sail reproduce`` writes the studies' tables and
-    figures then).
+    figures then).  ``fit_cache_dir`` caches the families' fits (``sail reproduce``:
+    :func:`~sailforce.io.cache.default_cache_dir` ``("fits")`` unless ``--no-cache``).
     """
     say = progress or (lambda step: None)
     robots = [robot] + ([robot.with_joints(compare_joints)] if compare_joints not in (None, "none", robot.joints.label) else [])
@@ -70,16 +74,18 @@ def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints:
         seconds += time.perf_counter() - started
     fits = None
     done = tuple(studies)
+    notes: list[str] = []
     if seed_model:
         fits = seed_model_study(seed_robot or robot, studies[0].protocol, progress=lambda name: say(f"seed model: {name} fitted"),
-                                workers=workers, while_fitting=None if with_studies is None else lambda: with_studies(done))  # fmt: skip
+                                workers=workers, while_fitting=None if with_studies is None else lambda: with_studies(done),
+                                cache_dir=fit_cache_dir, notes=notes)  # fmt: skip
     elif with_studies is not None:
         with_studies(done)
     solid_study = None
     if solid:
         say(f"solid model, {robot.joints.label} joints ({solid_mesh_size * 1e3:g} mm)")
         solid_study = solid_pass(robot, studies[0], solid_mesh_size)
-    return Reproduction(done, seconds, fits, solid_study)
+    return Reproduction(done, seconds, fits, solid_study, tuple(notes))
 
 
 def solid_pass(robot: Robot, study: StudyResult, mesh_size: float = DEFAULT_SOLID_MESH_SIZE) -> SolidStudy:
