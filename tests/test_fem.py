@@ -353,3 +353,30 @@ def test_the_stiffness_basis_is_each_members_block_added_in_turn(joints):
                     expected[row, a, b] += blocks[e, m, i, j]
     got = _element_basis(frame.n_dofs, frame.n_axes, frame.element_dofs, frame.element_axis, frame.local_k)
     np.testing.assert_array_equal(got, expected)
+
+
+#: Stacked and single solves run the same LAPACK call on each system (here they agree bit for bit); rounding only.
+STACKED_RTOL = 1e-13
+
+
+def test_robots_solved_together_are_each_solved_alone():
+    """simulate_models stacks frames of one topology (a Jacobian's robots) into one solve; each answer is its own."""
+    from sailforce.fem.response import simulate_models
+    from sailforce.io.robotkeys import with_keys
+    from sailforce.paper.study import table4, table4_many
+
+    base = Robot().with_joints("spring")
+    robots = [with_keys(base, {"joints.P1.stiffness": k, "links.l3": l3, "loadcells.crosstalk_moment": c})
+              for k, l3, c in ((50.0, 0.45, 0.0), (500.0, 0.40, 0.1), (5.0, 0.50, -0.2))]  # fmt: skip
+    robots.append(Robot().with_joints("pin"))  # another topology: solved on its own
+    rng = np.random.default_rng(7)
+    theta1, theta2 = rng.uniform(0.3, 2.0, 12), rng.uniform(-0.3, 0.8, 12)
+    together = simulate_models([build_model(r) for r in robots], theta1, theta2)
+    for robot, response in zip(robots, together):
+        alone = simulate(robot, theta1, theta2)
+        for name in ("torques", "deflection", "cell_forces", "end_forces", "displacements"):
+            expected = getattr(alone, name)
+            np.testing.assert_allclose(getattr(response, name), expected, rtol=0, atol=STACKED_RTOL * np.abs(expected).max(),
+                                       err_msg=name)  # fmt: skip
+    for robot, table in zip(robots, table4_many(robots, "bridge")):
+        np.testing.assert_allclose(table, table4(robot, "bridge"), rtol=STACKED_RTOL, atol=STACKED_RTOL)

@@ -9,6 +9,8 @@ Structural Analysis*, 1968, Sec. 5.6), so each straight segment is one element.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 
@@ -81,15 +83,19 @@ def rotation(cos, sin) -> np.ndarray:
     return t
 
 
+@cache
 def rotation_patterns() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Tc, Ts, T1), each ``(6, 6)``, with ``rotation(c, s) = c Tc + s Ts + T1``.
+    """(Tc, Ts, T1), each ``(6, 6)``, with ``rotation(c, s) = c Tc + s Ts + T1`` (made once; read-only).
 
     :func:`rotation` is affine in (c, s), so its values at (1, 0), (0, 1)
     and (0, 0) give the three patterns: the one transformation from which
     the frame's stiffness basis and its force recovery are derived.
     """
     t1 = rotation(0.0, 0.0)
-    return rotation(1.0, 0.0) - t1, rotation(0.0, 1.0) - t1, t1
+    patterns = (rotation(1.0, 0.0) - t1, rotation(0.0, 1.0) - t1, t1)
+    for pattern in patterns:
+        pattern.flags.writeable = False
+    return patterns
 
 
 def to_local(cos, sin, vectors: np.ndarray) -> np.ndarray:

@@ -199,6 +199,51 @@ def solve(frame: Frame, angles, loads) -> FrameSolution:
     return FrameSolution(displacements, forces, angles)
 
 
+def same_topology(frames) -> bool:
+    """Whether ``frames`` differ only in their numbers (stiffnesses, springs' values): :func:`solve_many` stacks them."""
+    first = frames[0]
+    return all(f.n_dofs == first.n_dofs and f.n_axes == first.n_axes and np.array_equal(f.element_dofs, first.element_dofs)
+               and np.array_equal(f.element_axis, first.element_axis) and np.array_equal(f.fixed, first.fixed)
+               and np.array_equal(f.springs, first.springs) for f in frames[1:])  # fmt: skip
+
+
+def solve_many(frames, angles, loads) -> list[FrameSolution]:
+    """:func:`solve` for each of ``frames`` at the same ``angles`` and ``loads``, as one stacked solve.
+
+    Frames of the same topology (:func:`same_topology`: the robots of a fit's finite-difference
+    Jacobian) are assembled, solved and recovered together, in chunks of :data:`CHUNK` systems;
+    others are solved one by one.  Each frame's solution is :func:`solve`'s (one stacked LAPACK
+    call solves each system as it would alone).
+    """
+    frames = list(frames)
+    if not frames:
+        return []
+    angles = np.asarray(angles, dtype=float)
+    loads = np.asarray(loads, dtype=float)
+    if len(frames) == 1 or not same_topology(frames):
+        return [solve(frame, angles, loads) for frame in frames]
+    first = frames[0]
+    if angles.ndim != 2 or angles.shape[1] != first.n_axes:
+        raise ShapeError(f"angles: expected shape (N, {first.n_axes}), got {angles.shape}")
+    if loads.ndim != 2 or loads.shape[0] != first.n_dofs:
+        raise ShapeError(f"loads: expected shape ({first.n_dofs}, L), got {loads.shape}")
+    step = max(1, CHUNK // max(len(angles), 1))
+    out: list[FrameSolution] = []
+    for start in range(0, len(frames), step):
+        group = frames[start : start + step]
+        basis = np.stack([f.basis for f in group])  # (B, M, n_free, n_free)
+        local_k = np.stack([f.local_k for f in group])  # (B, E, 6, 6)
+        free = ~first.fixed
+        n_free = basis.shape[-1]
+        K = (monomials(angles) @ basis.reshape(len(group), basis.shape[1], -1)).reshape(len(group), len(angles), n_free, n_free)
+        u = np.zeros((len(group), len(angles), first.n_dofs, loads.shape[1]))
+        u[:, :, free] = np.linalg.solve(K, np.broadcast_to(loads[free], K.shape[:2] + loads[free].shape))
+        theta = angles[:, first.element_axis][..., None, None]  # (N, E, 1, 1)
+        forces = local_k[:, None] @ to_local(np.cos(theta), np.sin(theta), u[:, :, first.element_dofs])  # (B, N, E, 6, L)
+        out += [FrameSolution(u[b], forces[b], angles) for b in range(len(group))]
+    return out
+
+
 def _solve_chunk(frame: Frame, angles: np.ndarray, loads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     free = ~frame.fixed
     K = assemble(frame, angles)
@@ -211,7 +256,7 @@ def end_forces(frame: Frame, angles: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Member end forces in local axes ``(N, E, 6, L)`` from global displacements ``(N, n_dofs, L)``: k T u."""
     theta = angles[:, frame.element_axis][..., None, None]  # (N, E, 1, 1)
     local = to_local(np.cos(theta), np.sin(theta), u[:, frame.element_dofs])  # (N, E, 6, L)
-    return np.einsum("eab,nebl->neal", frame.local_k, local, optimize=True)
+    return frame.local_k @ local  # (E, 6, 6) @ (N, E, 6, L): one stacked product, no einsum path to plan per call
 
 
 def reactions(frame: Frame, solution: FrameSolution, loads: np.ndarray) -> np.ndarray:

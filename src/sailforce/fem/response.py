@@ -28,8 +28,7 @@ from .._validate import as_float_arrays
 from ..errors import InputError
 from ..loadcell import READINGS
 from ..robot import Robot
-from .elements import rotation
-from .frame import solve
+from .frame import solve, solve_many
 from .model import LOADCELL_MEMBERS, MEMBER_LINK, MEMBERS, ROOT_MEMBERS, ArmModel, build_model
 
 TRANSDUCTIONS = READINGS  #: the cells' readings (:data:`sailforce.loadcell.READINGS`)
@@ -78,36 +77,41 @@ def simulate(robot: Robot, theta1, theta2, *, shear_deformation: bool = True) ->
 
 def simulate_model(model: ArmModel, theta1, theta2) -> ArmResponse:
     """:func:`simulate` for an already built model (saves rebuilding it in loops over robots)."""
+    return simulate_models([model], theta1, theta2)[0]
+
+
+def simulate_models(models, theta1, theta2) -> list[ArmResponse]:
+    """:func:`simulate_model` for each of ``models`` at the same poses: one stacked solve when their frames
+    share a topology (:func:`~sailforce.fem.frame.solve_many`; a fit's finite-difference Jacobian)."""
     theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
     shape = theta1.shape
     angles = np.stack([theta1.ravel(), theta2.ravel()], axis=-1)  # (N, 2): the frame's two axes
-    solution = solve(model.frame, angles, model.loads)
-
-    dof = model.dof
-    # The motor at B_i holds the inner member of link i, whose i-end moment is
-    # the support reaction there (node equilibrium); T_i is its negative.
-    torques = -solution.end_forces[:, list(ROOT_MEMBERS), 2]
-    t = rotation(np.cos(angles), np.sin(angles))[..., None, :, :]  # (N, 2, 1, 6, 6): each link's member transformation
-    u = solution.displacements[:, [dof["C1b.u"], dof["C2b.u"]]]
-    v = solution.displacements[:, [dof["C1b.v"], dof["C2b.v"]]]
-    deflection = t[..., 1, 0] * u + t[..., 1, 1] * v  # the far face's local v: row v of T times (u, v)
-
-    f = solution.end_forces[:, list(LOADCELL_MEMBERS)]  # (N, 2, 6, 2)
-    cell_forces = np.stack([f[:, :, 3], f[:, :, 4], 0.5 * (f[:, :, 5] - f[:, :, 2])], axis=2)
+    models = list(models)
+    same = len(models) > 1 and all(m.dof == models[0].dof for m in models[1:])
+    if same:
+        solutions = solve_many([m.frame for m in models], angles, models[0].loads)
+    else:
+        solutions = [solve(m.frame, angles, m.loads) for m in models]
+    cos, sin = np.cos(angles)[..., None], np.sin(angles)[..., None]  # (N, 2, 1): each link's axis
 
     def batch(a: np.ndarray) -> np.ndarray:
         return a.reshape(shape + a.shape[1:])
 
-    return ArmResponse(
-        model=model,
-        theta1=theta1,
-        theta2=theta2,
-        torques=batch(torques),
-        deflection=batch(deflection),
-        cell_forces=batch(cell_forces),
-        end_forces=batch(solution.end_forces),
-        displacements=batch(solution.displacements),
-    )
+    out = []
+    for model, solution in zip(models, solutions):
+        dof = model.dof
+        # The motor at B_i holds the inner member of link i, whose i-end moment is
+        # the support reaction there (node equilibrium); T_i is its negative.
+        torques = -solution.end_forces[:, list(ROOT_MEMBERS), 2]
+        u = solution.displacements[:, [dof["C1b.u"], dof["C2b.u"]]]
+        v = solution.displacements[:, [dof["C1b.v"], dof["C2b.v"]]]
+        deflection = -sin * u + cos * v  # the far face's local v: row v of the member transformation T times (u, v)
+        f = solution.end_forces[:, list(LOADCELL_MEMBERS)]  # (N, 2, 6, 2)
+        cell_forces = np.stack([f[:, :, 3], f[:, :, 4], 0.5 * (f[:, :, 5] - f[:, :, 2])], axis=2)
+        out.append(ArmResponse(model=model, theta1=theta1, theta2=theta2, torques=batch(torques), deflection=batch(deflection),
+                               cell_forces=batch(cell_forces), end_forces=batch(solution.end_forces),
+                               displacements=batch(solution.displacements)))  # fmt: skip
+    return out
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ do not see at all.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -363,6 +363,17 @@ class Problem:
     def residuals(self, x: np.ndarray) -> np.ndarray:
         return self.target.residuals(self.robot_at(x)).ravel()
 
+    def residuals_map(self, fun: Callable, points: Iterable[np.ndarray]) -> list[np.ndarray]:
+        """``[fun(x) for x in points]``, as least_squares' ``workers`` asks for its finite-difference Jacobian's columns.
+
+        ``fun`` is :meth:`residuals`; a target with ``residuals_many`` (a Table 4) evaluates
+        every column's robot in one stacked frame solve instead.
+        """
+        many = getattr(self.target, "residuals_many", None)
+        if many is None:
+            return [fun(x) for x in points]
+        return [r.ravel() for r in many([self.robot_at(x) for x in points])]
+
     def starts(self, per_parameter: int | None = None) -> np.ndarray:
         """``(n_starts, n)``: the robot's own values (clipped to the bounds), then :func:`_starts`' grid or sample."""
         low, high = self.x_bounds
@@ -390,7 +401,7 @@ def solve_start(problem: Problem, x0: np.ndarray):
     """One start, solved to :data:`START_TOL` (at most :data:`START_MAX_NFEV` evaluations); None if its robot is invalid."""
     try:
         return least_squares(problem.residuals, x0, bounds=problem.x_bounds, xtol=START_TOL, ftol=START_TOL,
-                             gtol=START_TOL, max_nfev=START_MAX_NFEV)  # fmt: skip
+                             gtol=START_TOL, max_nfev=START_MAX_NFEV, workers=problem.residuals_map)  # fmt: skip
     except RobotFileError:  # a start whose robot is invalid (a cell that no longer fits ...): skip it
         return None
 
@@ -408,7 +419,8 @@ def best_start(results):
 
 def polish(problem: Problem, x: np.ndarray):
     """The best start solved on to :data:`SOLVER_TOL`."""
-    return least_squares(problem.residuals, x, bounds=problem.x_bounds, xtol=SOLVER_TOL, ftol=SOLVER_TOL, gtol=SOLVER_TOL)
+    return least_squares(problem.residuals, x, bounds=problem.x_bounds, xtol=SOLVER_TOL, ftol=SOLVER_TOL, gtol=SOLVER_TOL,
+                         workers=problem.residuals_map)  # fmt: skip
 
 
 def identify(

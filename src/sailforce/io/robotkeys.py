@@ -86,7 +86,12 @@ def _unknown(robot: Robot, key: str) -> RobotFileError:
 
 def get_key(robot: Robot, key: str) -> Any:
     """The value of ``key`` on ``robot`` (a per-joint or per-link key falls back to the shared table)."""
-    node: Any = _keyed_data(robot)
+    return _get(_keyed_data(robot), robot, key)
+
+
+def _get(keyed: dict[str, Any], robot: Robot, key: str) -> Any:
+    """:func:`get_key` on ``robot``'s :func:`_keyed_data` ``keyed``, made once for many keys."""
+    node: Any = keyed
     parts = key.split(".")
     if _per_body(parts) and parts[1] not in node[parts[0]]:
         parts = [*_SHARED[parts[0]][1], parts[2]]
@@ -101,10 +106,10 @@ def get_key(robot: Robot, key: str) -> Any:
 
 def with_keys(robot: Robot, values: Mapping[str, Any]) -> Robot:
     """A copy of ``robot`` with each ``key = value`` set, validated as a robot file would be."""
-    data = robot_data(robot)
+    data = _keyed_data(robot)
     edited = robot_data(robot)  # a second, independent copy (robot_data builds its tables afresh): cheaper than deepcopy
     for key, value in values.items():
-        get_key(robot, key)  # refuses unknown keys by name
+        _get(data, robot, key)  # refuses unknown keys by name
         if key.startswith("adc."):
             edited["adc"] = _adc_table(robot, values)
             continue

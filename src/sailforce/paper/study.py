@@ -26,13 +26,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
+from functools import cache
 
 import numpy as np
 
 from ..errors import InputError
 from ..estimate.estimator import estimate_force
 from ..fem.model import ArmModel, build_model
-from ..fem.response import ArmResponse, simulate_model
+from ..fem.response import ArmResponse, simulate_model, simulate_models
 from ..fit.matrix import fit_matrix_compensator
 from ..robot import Robot
 from ..sensing.maps import (
@@ -316,10 +317,39 @@ def table4(robot: Robot, transduction: str = "deflection", *, protocol: Protocol
     F (r_x cos phi + r_y sin phi) returns those rows exactly (to rounding), so the two agree to
     :data:`TABLE4_AGREEMENT` (``tests/test_study.py``).
     """
-    (t1a, t2a), (t1b, t2b) = protocol.sweep_poses(1), protocol.sweep_poses(2)
-    theta1, theta2 = np.concatenate([t1a, t1b]), np.concatenate([t2a, t2b])
+    theta1, theta2, order, split = _table4_plan(protocol)
     unit = simulate_model(build_model(robot), theta1, theta2).signal(transduction)  # (n1 + n2, 2 cells, 2)
-    return table4_from_rows(robot.arm, protocol, unit[: t1a.size], unit[t1a.size :])
+    return _table4_rows(robot.arm, theta1, theta2, order, split, unit)
+
+
+def table4_many(robots, transduction: str = "deflection", *, protocol: Protocol = Protocol()) -> list[np.ndarray]:
+    """:func:`table4` of each of ``robots``, their frames solved together (:func:`~sailforce.fem.response.simulate_models`)."""
+    theta1, theta2, order, split = _table4_plan(protocol)
+    responses = simulate_models([build_model(robot) for robot in robots], theta1, theta2)
+    return [_table4_rows(robot.arm, theta1, theta2, order, split, response.signal(transduction))
+            for robot, response in zip(robots, responses)]  # fmt: skip
+
+
+@cache
+def _table4_plan(protocol: Protocol) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Both sweeps' poses end to end, each sweep's ascending-delta order (into them), sweep 1's size; once per protocol."""
+    (t1a, t2a), (t1b, t2b) = protocol.sweep_poses(1), protocol.sweep_poses(2)
+    if not np.allclose(np.sort(t1a - t2a), np.sort(t1b - t2b)):
+        raise InputError("the two sweeps must cover the same delta values to share Table 4 rows")
+    theta1, theta2 = np.concatenate([t1a, t1b]), np.concatenate([t2a, t2b])
+    order = np.concatenate([np.argsort(t1a - t2a), t1a.size + np.argsort(t1b - t2b)])
+    for array in (theta1, theta2, order):
+        array.flags.writeable = False
+    return theta1, theta2, order, t1a.size
+
+
+def _table4_rows(arm, theta1: np.ndarray, theta2: np.ndarray, order: np.ndarray, split: int, rows: np.ndarray) -> np.ndarray:
+    """Table 4 from cell i's reading per unit (Fx, Fy) ``rows`` over sweep i, the sweeps end to end in ``order``."""
+    t1, t2 = theta1[order], theta2[order]
+    amplitude, phase = amplitude_phase(np.asarray(rows)[order], torque_rows(arm, t1, t2))  # (n1 + n2, 2 cells) each
+    first, second = slice(0, split), slice(split, None)
+    return np.column_stack([np.degrees((t1 - t2)[first]), amplitude[first, 0], np.degrees(phase[first, 0]),
+                            amplitude[second, 1], np.degrees(phase[second, 1])])  # fmt: skip
 
 
 def table4_from_rows(arm, protocol: Protocol, sweep1_rows: np.ndarray, sweep2_rows: np.ndarray) -> np.ndarray:
@@ -328,16 +358,8 @@ def table4_from_rows(arm, protocol: Protocol, sweep1_rows: np.ndarray, sweep2_ro
     ``sweepK_rows`` is ``(n_poses, 2, 2)``: cell i's reading per unit F_j at each pose of sweep K, in the
     protocol's order (the solid model's, :mod:`sailforce.solid.sweep`).  Same columns as :func:`table4`.
     """
-    columns = []
-    for i, rows in enumerate((sweep1_rows, sweep2_rows)):
-        theta1, theta2 = protocol.sweep_poses(i + 1)
-        order = np.argsort(theta1 - theta2)
-        amplitude, phase = amplitude_phase(np.asarray(rows)[order, i], torque_rows(arm, theta1[order], theta2[order])[:, i])
-        columns.append((np.degrees((theta1 - theta2)[order]), amplitude, np.degrees(phase)))
-    if not np.allclose(columns[0][0], columns[1][0]):
-        raise InputError("the two sweeps must cover the same delta values to share Table 4 rows")
-    (delta_deg, a1, p1), (_, a2, p2) = columns
-    return np.column_stack([delta_deg, a1, p1, a2, p2])
+    theta1, theta2, order, split = _table4_plan(protocol)
+    return _table4_rows(arm, theta1, theta2, order, split, np.concatenate([sweep1_rows, sweep2_rows]))
 
 
 def _least_squares_scale(signal: np.ndarray, torque: np.ndarray) -> float:

@@ -15,14 +15,22 @@ import numpy as np
 
 from ..fit.identify import AMPLITUDE_WEIGHT, Identification, IdentifyError, _rms2, identify
 from ..robot import Robot
-from .study import Protocol, table4
+from .study import Protocol, table4, table4_many
 
 
 def table4_residuals(model: np.ndarray, target: np.ndarray, amplitude_weight: float = AMPLITUDE_WEIGHT) -> np.ndarray:
     """(n, 4) residuals: both phases [deg], then both amplitude shapes times ``amplitude_weight``."""
+    _check_grid(model, target)
+    return _residuals(model, target, amplitude_weight)
+
+
+def _check_grid(model: np.ndarray, target: np.ndarray) -> None:
     if model.shape != target.shape or not np.allclose(model[:, 0], target[:, 0]):
         raise IdentifyError(f"the target's Table 4 has delta = {target[:, 0].tolist()} deg; the protocol's sweeps "
                             f"give {model[:, 0].tolist()}: give a Protocol with the target's grid")  # fmt: skip
+
+
+def _residuals(model: np.ndarray, target: np.ndarray, amplitude_weight: float) -> np.ndarray:
     phases = model[:, [2, 4]] - target[:, [2, 4]]
     shape = lambda t: t[:, [1, 3]] / np.mean(t[:, [1, 3]], axis=0)
     return np.column_stack([phases, amplitude_weight * (shape(model) - shape(target))])
@@ -36,12 +44,25 @@ class Table4Target:
     transduction: str = "deflection"
     amplitude_weight: float = AMPLITUDE_WEIGHT
     protocol: Protocol = field(default_factory=Protocol)
+    _grid_checked: bool = field(default=False, init=False, repr=False, compare=False)
 
     columns = ("phase 1 [deg]", "phase 2 [deg]", "shape 1 (weighted)", "shape 2 (weighted)")
 
     def residuals(self, robot: Robot) -> np.ndarray:
-        """(n, 4) (or (n, 2), phases only, with ``amplitude_weight`` 0)."""
-        full = table4_residuals(table4(robot, self.transduction, protocol=self.protocol), self.table, self.amplitude_weight)
+        """(n, 4) (or (n, 2), phases only, with ``amplitude_weight`` 0); a target off the protocol's delta grid is refused."""
+        return self._of(table4(robot, self.transduction, protocol=self.protocol))
+
+    def residuals_many(self, robots: Sequence[Robot]) -> list[np.ndarray]:
+        """:meth:`residuals` of each of ``robots``, their frames solved together (a finite-difference Jacobian's columns)."""
+        return [self._of(model) for model in table4_many(robots, self.transduction, protocol=self.protocol)]
+
+    def _of(self, model: np.ndarray) -> np.ndarray:
+        if model.shape != self.table.shape:
+            _check_grid(model, self.table)
+        elif not self._grid_checked:  # the grid is the protocol's, the same at every evaluation: checked once
+            _check_grid(model, self.table)
+            object.__setattr__(self, "_grid_checked", True)
+        full = _residuals(model, self.table, self.amplitude_weight)
         return full if self.amplitude_weight > 0 else full[:, :2]
 
     def metrics(self, residuals: np.ndarray) -> dict[str, tuple[float, float]]:
