@@ -112,6 +112,10 @@ def test_the_pool_fits_what_this_process_fits():
         assert a.family == b.family
         np.testing.assert_array_equal(a.fit.values, b.fit.values)
         np.testing.assert_array_equal(a.fit.residuals, b.fit.residuals)
+    from sailforce.errors import InputError
+
+    with pytest.raises(InputError, match="workers = 0: expected at least 1"):
+        fit_families(Robot(), _truth_table(), _CHEAP, workers=0)
 
 
 def test_the_fit_cache_answers_a_rerun_and_only_its_own_fit(tmp_path, monkeypatch):

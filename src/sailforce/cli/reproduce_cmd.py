@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -41,6 +42,9 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
 @click.option("--seed-model/--no-seed-model", default=True, show_default=True,
               help="Fit structure families to the seed's Table 4 (\"What was the seed's model?\"; about 25 s on two "
               "cores, a few when cached).")
+@click.option("--workers", type=click.IntRange(1, 512), default=None,
+              help="Processes that fit the seed-model families, the studies' figures drawn meanwhile. Default: one "
+              "per core.")
 @click.option("--no-cache", is_flag=True,
               help="Fit the seed-model families afresh, neither reading nor writing the fit cache "
               "($SAIL_CACHE_DIR, else ~/.cache/sailforce/fits; an entry answers only the same fit by the same code).")
@@ -49,7 +53,7 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
 @click.option("--solid-mesh-mm", type=click.FloatRange(0.25, 50.0), default=4.0, show_default=True,
               help="Element size of the solid [mm].")
 def reproduce_command(output, robot_path, joints, transduction, criterion, threshold, compare_joints, dpi, seed_model,
-                      no_cache, solid, solid_mesh_mm):  # fmt: skip
+                      workers, no_cache, solid, solid_mesh_mm):  # fmt: skip
     """Run the seed's virtual study (docs/errata.md protocol) and write a report.
 
     Stress patterns (Fig. 4), sweeps 1 and 2 (Fig. 5), Table 4 by
@@ -99,6 +103,7 @@ def reproduce_command(output, robot_path, joints, transduction, criterion, thres
         run = reproduce(base, transduction=transduction, compare_joints=compare_joints, criterion=criterion,
                         threshold=threshold, seed_model=seed_model, seed_robot=load_robot(robot_path), solid=solid,
                         solid_mesh_size=solid_mesh_mm / 1e3, progress=step, with_studies=write_studies,
+                        workers=workers or os.cpu_count() or 1,
                         fit_cache_dir=None if no_cache else default_cache_dir("fits"))  # fmt: skip
         print_notes(console, run.notes)
         if run.seed_model is not None:

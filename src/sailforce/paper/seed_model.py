@@ -22,7 +22,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import multiprocessing
-import os
 import time
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -35,7 +34,7 @@ from types import SimpleNamespace
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ..errors import CacheEntryError
+from ..errors import CacheEntryError, InputError
 from ..fit.identify import AMPLITUDE_WEIGHT, Identification, Problem, best_start, conclude, polish, prepare, solve_start
 from ..io.cache import DiskCache, canonical_json, code_fingerprint
 from ..io.robotfile import robot_data
@@ -117,17 +116,19 @@ def fit_families(
     *,
     protocol: Protocol = Protocol(),
     progress: Callable[[str], None] | None = None,
-    workers: int | None = None,
+    workers: int = 1,
     while_fitting: Callable[[], None] | None = None,
     cache_dir: Path | None = None,
     notes: list[str] | None = None,
 ) -> tuple[FamilyFit, ...]:
     """Fit each family to ``seed_table`` starting from ``robot``; ``progress(name)`` as each family's fit is done.
 
-    Every start of every family, then each family's polish, is a task for a pool of ``workers``
-    processes (default: one per core, :data:`os.cpu_count`); ``workers=1`` runs them here.  The
-    tasks are the ones :func:`~sailforce.fit.identify.identify` runs in turn, so the fits are the
-    same however many workers there are.  ``FamilyFit.seconds`` is the time its tasks took, summed.
+    Every start of every family, then each family's polish, is a task: ``workers=1`` runs them
+    here, more run them on a pool of that many spawned processes (``sail reproduce``: one per
+    core).  A script that asks for a pool must guard its entry point with ``if __name__ ==
+    "__main__":``, as Python's multiprocessing requires of spawned processes.  The tasks are
+    the ones :func:`~sailforce.fit.identify.identify` runs in turn, so the fits are the same
+    however many workers there are.  ``FamilyFit.seconds`` is the time its tasks took, summed.
     ``while_fitting()``, if given, runs here once the tasks are in the pool (``sail reproduce``
     draws its figures meanwhile).
 
@@ -146,8 +147,9 @@ def fit_families(
     found = [cache.read(entry, partial(_checked_solution, problem=problem)) for entry, problem in zip(inputs, problems)]
     todo = [k for k, hit in enumerate(found) if hit is None]
     tasks = sum(len(meshes[k]) for k in todo)
-    workers = max(1, min(os.cpu_count() or 1, tasks) if workers is None else int(workers))
-    with _pool(workers if tasks else 1) as pool:
+    if int(workers) < 1:
+        raise InputError(f"workers = {workers}: expected at least 1")
+    with _pool(min(int(workers), tasks) if tasks else 1) as pool:
         starts = {k: [pool.submit(_timed, solve_start, problems[k], x0) for x0 in meshes[k]] for k in todo}
         if while_fitting is not None:
             while_fitting()
@@ -401,7 +403,7 @@ class SeedModelResult:
 
 def seed_model_study(
     robot: Robot, protocol: Protocol = Protocol(), progress: Callable[[str], None] | None = None, *,
-    workers: int | None = None, while_fitting: Callable[[], None] | None = None, cache_dir: Path | None = None,
+    workers: int = 1, while_fitting: Callable[[], None] | None = None, cache_dir: Path | None = None,
     notes: list[str] | None = None,
 ) -> SeedModelResult:
     """Fit :data:`FAMILIES` to the seed's Table 4 from ``robot`` and run the three checks (:func:`fit_families`' options)."""

@@ -49,7 +49,7 @@ class Reproduction:
 def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints: str | None = "pin",
               criterion: str = DEFAULT_CRITERION, threshold: float = DEFAULT_THRESHOLD, seed_model: bool = True,
               seed_robot: Robot | None = None, solid: bool = False, solid_mesh_size: float = DEFAULT_SOLID_MESH_SIZE,
-              progress: Callable[[str], None] | None = None, workers: int | None = None,
+              progress: Callable[[str], None] | None = None, workers: int = 1,
               with_studies: Callable[[tuple[StudyResult, ...]], None] | None = None,
               fit_cache_dir: Path | None = None) -> Reproduction:  # fmt: skip
     """Run the seed's study on ``robot`` (and on its ``compare_joints`` twin), fit the seed-model families, solve the solid.
@@ -57,8 +57,8 @@ def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints:
     ``seed_robot`` is the robot the seed-model families start from (default
     ``robot``); ``progress(step)`` hears each step as it starts (``"study, pin
     joints"``, ``"solid model"``) and each seed-model family as its fit ends
-    (``"seed model: <family> fitted"``).  The families' fits run on ``workers``
-    processes (default: one per core; :func:`~sailforce.paper.seed_model.fit_families`).
+    (``"seed model: <family> fitted"``).  The families' fits run here, or on a pool of
+    ``workers`` processes (:func:`~sailforce.paper.seed_model.fit_families`; ``sail reproduce``: one per core).
     ``with_studies(studies)``, if given, is called once the studies are done, while
     the families are fitted (``sail reproduce`` writes the studies' tables and
     figures then).  ``fit_cache_dir`` caches the families' fits (``sail reproduce``:
