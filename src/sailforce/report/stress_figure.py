@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 from ..errors import InputError
 from ..fem.model import MEMBERS, node_positions
 from ..fem.response import ArmResponse, member_stresses
+from .grid import Margins, panel_grid
 
 SAMPLES_PER_MEMBER = 24  #: points along each member at which stress colours the drawing
 
@@ -49,8 +50,8 @@ def stress_figure(response: ArmResponse, phi, force: float, title: str = "") -> 
     norm = Normalize(0.0, max(float(np.max(m)) for m in mpa) or 1.0)
     cols = min(4, phi.size)
     rows = math.ceil(phi.size / cols)
-    fig = Figure(figsize=(3.4 * cols, 3.2 * rows + 0.6), layout="constrained")
-    axes = fig.subplots(rows, cols, squeeze=False)
+    fig = Figure(figsize=(3.4 * cols + 0.9, 3.2 * rows + 0.8))
+    axes, bar = panel_grid(fig, rows, cols, Margins(left=0.6, wgap=0.55, hgap=0.75), colorbar=0.9)
     reach = response.model.robot.arm.l2 + response.model.robot.arm.l3
     t = np.linspace(0.0, 1.0, SAMPLES_PER_MEMBER)
     corners = np.array(list(positions.values()))
@@ -80,7 +81,7 @@ def stress_figure(response: ArmResponse, phi, force: float, title: str = "") -> 
         ax.set_xlim(low[0], high[0])
         ax.set_ylim(low[1], high[1])
         ax.tick_params(labelsize=7)
-    fig.colorbar(ScalarMappable(norm=norm, cmap=colormaps["turbo"]), ax=axes, label="von Mises stress [MPa]", shrink=0.8)
+    fig.colorbar(ScalarMappable(norm=norm, cmap=colormaps["turbo"]), cax=bar, label="von Mises stress [MPa]")
     fig.suptitle(title or f"{force:g} N at the end effector, θ1 = {math.degrees(theta1):g}°, "
                  f"θ2 = {math.degrees(theta2):g}°", fontsize=10)  # fmt: skip
     return fig

@@ -8,6 +8,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..paper.study import Curves, StudyResult
+from .grid import panel_grid
 from .labels import MODEL_COLOURS, model_label
 
 SEED_STYLE = {"color": "0.35", "linestyle": "--", "marker": "s", "markersize": 3}  #: the seed's published values
@@ -28,8 +29,8 @@ def _curve_grid(result: StudyResult, grids: tuple[Curves, Curves], draw, suptitl
     n = max(g.theta1.size for g in grids)
     cols = 4
     rows_per_cell = math.ceil(n / cols)
-    fig = Figure(figsize=(3.3 * cols, 2.3 * 2 * rows_per_cell + 0.8), layout="constrained")
-    axes = fig.subplots(2 * rows_per_cell, cols, sharex=True, squeeze=False)
+    fig = Figure(figsize=(3.3 * cols, 2.3 * 2 * rows_per_cell + 0.8))
+    axes = panel_grid(fig, 2 * rows_per_cell, cols, sharex=True)
     phi_deg = np.asarray(result.protocol.phi_deg)
     for i, grid in enumerate(grids):
         for k in range(n):
