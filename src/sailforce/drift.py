@@ -45,7 +45,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 from .errors import InputError
 
@@ -166,6 +165,8 @@ def creep_lag(t, signal, drift: Drift) -> np.ndarray:
     k = drift.creep / (1.0 - np.exp(-CREEP_SPAN_S / drift.creep_time_s))
     steps = np.diff(t)
     if steps.size and np.allclose(steps, steps[0], rtol=1e-9, atol=0.0):  # uniform: one IIR filter
+        from scipy.signal import lfilter  # here: scipy.signal takes over a second to import, and every calibration loads this module
+
         a = float(np.exp(-steps[0] / drift.creep_time_s))
         out = np.zeros_like(signal)
         out[1:] = lfilter([(1.0 - a) * k], [1.0, -a], signal[1:], axis=0)

@@ -39,8 +39,6 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.stats import qmc
 
 from ..errors import IdentifyError, RobotFileError, SailError
 from ..fem.model import build_model
@@ -399,6 +397,7 @@ def prepare(robot: Robot, target: Target, free: Sequence[str],
 
 def solve_start(problem: Problem, x0: np.ndarray):
     """One start, solved to :data:`START_TOL` (at most :data:`START_MAX_NFEV` evaluations); None if its robot is invalid."""
+    least_squares = _least_squares()
     try:
         return least_squares(problem.residuals, x0, bounds=problem.x_bounds, xtol=START_TOL, ftol=START_TOL,
                              gtol=START_TOL, max_nfev=START_MAX_NFEV, workers=problem.residuals_map)  # fmt: skip
@@ -419,7 +418,7 @@ def best_start(results):
 
 def polish(problem: Problem, x: np.ndarray):
     """The best start solved on to :data:`SOLVER_TOL`."""
-    return least_squares(problem.residuals, x, bounds=problem.x_bounds, xtol=SOLVER_TOL, ftol=SOLVER_TOL, gtol=SOLVER_TOL,
+    return _least_squares()(problem.residuals, x, bounds=problem.x_bounds, xtol=SOLVER_TOL, ftol=SOLVER_TOL, gtol=SOLVER_TOL,
                          workers=problem.residuals_map)  # fmt: skip
 
 
@@ -489,6 +488,14 @@ def conclude(problem: Problem, best, n_starts: int) -> Identification:
     )  # fmt: skip
 
 
+def _least_squares():
+    """scipy's least_squares, imported when a fit runs: scipy.optimize takes over half a second to import, and this
+    module is loaded by every command that reads a calibration."""
+    from scipy.optimize import least_squares
+
+    return least_squares
+
+
 def _starts(low: np.ndarray, high: np.ndarray, per_parameter: int) -> np.ndarray:
     """Interior grid points of the box, or a scrambled Sobol' sample when the grid would exceed MAX_STARTS."""
     n = low.size
@@ -498,6 +505,8 @@ def _starts(low: np.ndarray, high: np.ndarray, per_parameter: int) -> np.ndarray
         grid = np.linspace(0.0, 1.0, per_parameter + 2)[1:-1]
         unit = np.stack(np.meshgrid(*([grid] * n), indexing="ij"), axis=-1).reshape(-1, n)
     else:
+        from scipy.stats import qmc  # here: scipy.stats takes half a second to import, and most commands never fit
+
         unit = qmc.Sobol(n, scramble=True, seed=12).random(MAX_STARTS)
     return low + unit * (high - low)
 

@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
 
 from ..drift import Drift, TemperatureProfile, cell_signs, drifted
 from ..kinematics import forward
@@ -55,6 +54,8 @@ def tremor(t, rms_N: float, rng: np.random.Generator) -> np.ndarray:
     if rms_N <= 0 or n < 32:
         return np.zeros((n, 2))
     rate = 1.0 / float(t[1] - t[0])
+    from scipy.signal import butter, sosfiltfilt  # here: scipy.signal takes over a second to import
+
     sos = butter(2, [TREMOR_BAND_HZ[0], min(TREMOR_BAND_HZ[1], 0.45 * rate)], btype="bandpass", fs=rate, output="sos")
     shaped = sosfiltfilt(sos, rng.normal(size=(n, 2)), axis=0)
     return rms_N * shaped / np.sqrt(np.mean(shaped**2, axis=0))
