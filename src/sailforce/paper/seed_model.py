@@ -22,9 +22,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import multiprocessing
+import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterator, Mapping
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
@@ -150,26 +152,17 @@ def fit_families(
     if int(workers) < 1:
         raise InputError(f"workers = {workers}: expected at least 1")
     with _pool(min(int(workers), tasks) if tasks else 1) as pool:
-        starts = {k: [pool.submit(_timed, solve_start, problems[k], x0) for x0 in meshes[k]] for k in todo}
-        if while_fitting is not None:
-            while_fitting()
-        polished = {}
-        for k, futures in starts.items():  # each family's polish goes in as soon as its starts are done
-            results = [future.result() for future in futures]
-            best = best_start([fit for fit, _ in results])
-            polished[k] = (pool.submit(_timed, polish, problems[k], best.x), sum(t for _, t in results))
+        solved = _in_background(lambda stop: _schedule(pool, int(workers), problems, meshes, todo, stop), while_fitting)
         out = []
         for k, (family, problem, mesh) in enumerate(zip(families, problems, meshes)):
-            if k in polished:
-                future, start_seconds = polished[k]
-                best, polish_seconds = future.result()
-                seconds = start_seconds + polish_seconds
+            if k in solved:
+                best, seconds = solved[k]
                 cache.write(inputs[k], _solution_value(best, seconds))
             else:
                 best, seconds = found[k]  # type: ignore[misc]  # a hit is _checked_solution's pair
             fit = conclude(problem, best, len(mesh))
             table = table4(fit.robot, family.transduction, protocol=protocol)
-            out.append(FamilyFit(family, fit, table, seconds, cached=k not in polished))
+            out.append(FamilyFit(family, fit, table, seconds, cached=k not in solved))
             if progress is not None:
                 progress(family.name)
     if notes is not None:
@@ -218,6 +211,71 @@ def _checked_solution(value: dict, problem: Problem) -> tuple[SimpleNamespace, f
     if not (math.isfinite(seconds) and seconds >= 0):
         raise CacheEntryError("its fit time is not a time")
     return SimpleNamespace(x=x, fun=fun, jac=jac, success=bool(value["success"])), seconds
+
+
+def _schedule(pool, workers: int, problems: list[Problem], meshes: list[np.ndarray], todo: list[int],
+              stop: threading.Event) -> dict[int, tuple[object, float]]:
+    """Each family's starts, then its polish, through ``pool``: ``{family: (polished result, seconds)}``.
+
+    A few tasks more than ``workers`` are in flight at a time, so that a family's polish, put
+    first in line when its last start is done, waits for no queue of other starts: the families
+    with the most work start first, and the last polish does not run alone at the end.  The best
+    start is chosen in start order (:func:`best_start`), whatever order the starts finish in.
+    """
+    order = sorted(todo, key=lambda k: -len(problems[k].params) * len(meshes[k]))
+    waiting: deque[tuple[Callable, int, int]] = deque((solve_start, k, i) for k in order for i in range(len(meshes[k])))
+    starts: dict[int, list] = {k: [None] * len(meshes[k]) for k in todo}
+    left = {k: len(meshes[k]) for k in todo}
+    start_seconds = dict.fromkeys(todo, 0.0)
+    running: dict[Future, tuple[Callable, int, int]] = {}
+    out: dict[int, tuple[object, float]] = {}
+    best_x: dict[int, np.ndarray] = {}
+    while (waiting or running) and not stop.is_set():
+        while waiting and len(running) < workers + 1:
+            task, k, i = waiting.popleft()
+            x = meshes[k][i] if task is solve_start else best_x[k]
+            running[pool.submit(_timed, task, problems[k], x)] = (task, k, i)
+        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        for future in done:
+            task, k, i = running.pop(future)
+            value, seconds = future.result()
+            if task is polish:
+                out[k] = (value, start_seconds[k] + seconds)
+                continue
+            starts[k][i], left[k] = (value, seconds), left[k] - 1
+            start_seconds[k] += seconds
+            if not left[k]:
+                best_x[k] = best_start([fit for fit, _ in starts[k]]).x
+                waiting.appendleft((polish, k, -1))
+    return out
+
+
+def _in_background(work: Callable[[threading.Event], dict], meanwhile: Callable[[], None] | None) -> dict:
+    """``work(stop)`` on a thread of its own while ``meanwhile()`` runs here; its result, or its error raised here."""
+    if meanwhile is None:
+        return work(threading.Event())
+    stop = threading.Event()
+    box: dict[str, dict] = {}
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            box["value"] = work(stop)
+        except BaseException as exc:  # raised in the caller's thread below
+            errors.append(exc)
+
+    thread = threading.Thread(target=run, name="sail-seed-model-fits", daemon=True)
+    thread.start()
+    try:
+        meanwhile()
+    except BaseException:
+        stop.set()
+        raise
+    finally:
+        thread.join()
+    if errors:
+        raise errors[0]
+    return box["value"]
 
 
 def _timed(fn: Callable, *args):
