@@ -25,6 +25,13 @@ def arms(draw) -> Arm:
     return Arm(l1=l1, l2=l2, l3=l3, l4=l2)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _force_kernel_loaded():
+    """The force kernel's first call loads numba and its compiled code (about a second): done once, before any test,
+    so that a property test's time limit (hypothesis' deadline) measures its examples, not the loading."""
+    Arm().end_effector_force(0.5, 0.1, 1.0, 2.0)
+
+
 @pytest.fixture(scope="session")
 def cals(tmp_path_factory):
     """A static and a dynamic calibration of simulated rig 1, made as `make live` makes them: (folder, static, dynamic)."""

@@ -105,40 +105,53 @@ def member_basis(local_k: np.ndarray) -> np.ndarray:
 
 def make_frame(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, springs=(), spring_k=()) -> Frame:
     """Check a frame's description and assemble its stiffness basis."""
+    local_k = np.asarray(local_k, dtype=float)
+    return make_frames(n_dofs, n_axes, element_dofs, element_axis, local_k[None], fixed, springs,
+                       np.asarray(spring_k, dtype=float).reshape(1, -1))[0]  # fmt: skip
+
+
+def make_frames(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, springs=(), spring_k=()) -> list[Frame]:
+    """:func:`make_frame` for frames that differ only in their numbers: ``local_k`` ``(B, E, 6, 6)`` and
+    ``spring_k`` ``(B, S)``; their bases are assembled as one stack, each as it would be alone."""
     element_dofs = np.asarray(element_dofs, dtype=int)
     element_axis = np.asarray(element_axis, dtype=int)
     local_k = np.asarray(local_k, dtype=float)
     fixed = np.asarray(fixed, dtype=bool)
     springs = np.asarray(springs, dtype=int).reshape(-1, 2)
-    spring_k = np.asarray(spring_k, dtype=float).reshape(-1)
-    if element_dofs.ndim != 2 or element_dofs.shape[1] != 6 or local_k.shape != (len(element_dofs), 6, 6):
-        raise ShapeError(f"expected element_dofs (E, 6) and local_k (E, 6, 6), got {element_dofs.shape}, {local_k.shape}")
-    if fixed.shape != (n_dofs,) or len(springs) != len(spring_k):
+    spring_k = np.asarray(spring_k, dtype=float).reshape(len(local_k), -1)
+    if element_dofs.ndim != 2 or element_dofs.shape[1] != 6 or local_k.shape[1:] != (len(element_dofs), 6, 6):
+        raise ShapeError(f"expected element_dofs (E, 6) and local_k (B, E, 6, 6), got {element_dofs.shape}, {local_k.shape}")
+    if fixed.shape != (n_dofs,) or spring_k.shape[1] != len(springs):
         raise ShapeError("fixed must have one flag per DOF and springs one stiffness each")
 
-    full = _element_basis(n_dofs, n_axes, element_dofs, element_axis, local_k)
-    for (a, b), k in zip(springs, spring_k):
-        full[-1, a, a] += k
+    full = _element_basis(n_dofs, n_axes, element_dofs, element_axis, local_k)  # (B, M, n, n)
+    for s, (a, b) in enumerate(springs):
+        k = spring_k[:, s]
+        full[:, -1, a, a] += k
         if b != GROUND:
-            full[-1, b, b] += k
-            full[-1, a, b] -= k
-            full[-1, b, a] -= k
+            full[:, -1, b, b] += k
+            full[:, -1, a, b] -= k
+            full[:, -1, b, a] -= k
     free = ~fixed
-    basis = full[:, free][:, :, free]
-    return Frame(n_dofs, n_axes, element_dofs, element_axis, local_k, fixed, springs, spring_k, basis)
+    basis = full[:, :, free][:, :, :, free]
+    return [Frame(n_dofs, n_axes, element_dofs, element_axis, local_k[i], fixed, springs, spring_k[i], basis[i])
+            for i in range(len(local_k))]  # fmt: skip
 
 
 def _element_basis(n_dofs: int, n_axes: int, element_dofs: np.ndarray, element_axis: np.ndarray,
                    local: np.ndarray) -> np.ndarray:
-    """``(5 n_axes + 1, n_dofs, n_dofs)``: the members' local matrices ``local (E, 6, 6)`` in global axes, by monomial."""
-    full = np.zeros((_MONOMIALS * n_axes + 1, n_dofs, n_dofs))
-    blocks = member_basis(local)  # (E, 6, 6, 6)
+    """``(..., 5 n_axes + 1, n_dofs, n_dofs)``: the members' local matrices ``local (..., E, 6, 6)`` in global axes, by monomial."""
+    batch = local.shape[:-3]
+    full = np.zeros(batch + (_MONOMIALS * n_axes + 1, n_dofs, n_dofs))
+    blocks = member_basis(local)  # (..., E, 6, 6, 6)
     # every member's block into its rows at once; np.add.at adds in index order (member, monomial, entry), so each
     # entry sums its members in order, as a loop over them would (a member's six DOFs are distinct)
     rows = np.concatenate([_MONOMIALS * element_axis[:, None] + np.arange(_MONOMIALS)[None, :],
-                           np.full((len(element_dofs), 1), full.shape[0] - 1)], axis=1)  # fmt: skip
+                           np.full((len(element_dofs), 1), _MONOMIALS * n_axes)], axis=1)  # fmt: skip
     dofs = np.asarray(element_dofs, dtype=int)
-    np.add.at(full, (rows[:, :, None, None], dofs[:, None, :, None], dofs[:, None, None, :]), blocks)
+    flat = full.reshape((-1,) + full.shape[-3:])
+    for b, stack in enumerate(blocks.reshape((-1,) + blocks.shape[-4:])):
+        np.add.at(flat[b], (rows[:, :, None, None], dofs[:, None, :, None], dofs[:, None, None, :]), stack)
     return full
 
 

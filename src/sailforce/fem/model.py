@@ -34,7 +34,7 @@ import numpy as np
 from ..kinematics import joint_positions
 from ..robot import JOINT_NAMES, Robot
 from .elements import flexibility_stiffness, local_stiffness, shear_parameter
-from .frame import GROUND, Frame, make_frame
+from .frame import GROUND, Frame, make_frames
 
 NODES = ("B1", "B2", "C1a", "C1b", "P1", "C2a", "C2b", "P2", "P3", "A")
 
@@ -118,6 +118,41 @@ def _rigidities(robot: Robot, shear_deformation: bool) -> tuple[np.ndarray, np.n
 
 def build_model(robot: Robot, *, shear_deformation: bool = True) -> ArmModel:
     """Build the frame for ``robot``.  ``shear_deformation=False`` gives Euler-Bernoulli members."""
+    return build_models([robot], shear_deformation=shear_deformation)[0]
+
+
+def build_models(robots, *, shear_deformation: bool = True) -> list[ArmModel]:
+    """:func:`build_model` for each of ``robots``; those whose joints and motors are modelled alike share one
+    layout of DOFs, and their stiffness bases are assembled as one stack (a fit's finite-difference Jacobian)."""
+    robots = list(robots)
+    out: list[ArmModel | None] = [None] * len(robots)
+    groups: dict[tuple, list[int]] = {}
+    for k, robot in enumerate(robots):
+        key = (robot.motors.model, *(robot.joints.at(name).model for name in JOINT_NAMES))
+        groups.setdefault(key, []).append(k)
+    for members in groups.values():
+        layout = _layout(robots[members[0]])
+        numbers = [_numbers(robots[k], layout, shear_deformation) for k in members]
+        frames = make_frames(layout.n_dofs, 2, layout.element_dofs, MEMBER_AXIS, np.stack([n[1] for n in numbers]),
+                             layout.fixed, layout.springs, np.array([n[2] for n in numbers]).reshape(len(members), -1))  # fmt: skip
+        for k, (lengths, _, _), frame in zip(members, numbers, frames):
+            out[k] = ArmModel(robots[k], frame, lengths, _member_offsets(lengths), layout.dof, shear_deformation)
+    return out  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """The DOFs of a robot's frame, which its joints' and motors' models decide (not their numbers)."""
+
+    dof: dict
+    element_dofs: list
+    n_dofs: int
+    fixed: np.ndarray
+    springs: list  #: (DOF, DOF or GROUND) of each spring
+    spring_keys: list  #: which stiffness each spring has: "motors" or a joint's name
+
+
+def _layout(robot: Robot) -> _Layout:
     dof: dict[str, int] = {}
     for node in NODES:
         dof[f"{node}.u"], dof[f"{node}.v"] = len(dof), len(dof) + 1
@@ -141,27 +176,30 @@ def build_model(robot: Robot, *, shear_deformation: bool = True) -> ArmModel:
     n_dofs = max(dof.values()) + 1
     fixed = np.zeros(n_dofs, dtype=bool)
     fixed[[dof["B1.u"], dof["B1.v"], dof["B2.u"], dof["B2.v"]]] = True
-    springs, spring_k = [], []
+    springs, keys = [], []
     if robot.motors.model == "locked":
         fixed[[dof["B1.r"], dof["B2.r"]]] = True
     else:
         for motor in ("B1.r", "B2.r"):
             springs.append((dof[motor], GROUND))
-            spring_k.append(robot.motors.stiffness)
+            keys.append("motors")
     for name, (first, second) in zip(JOINT_NAMES, JOINTS):
-        joint = robot.joints.at(name)
-        if joint.model == "spring":
+        if robot.joints.at(name).model == "spring":
             springs.append((dof[first], dof[second]))
-            spring_k.append(joint.stiffness)
+            keys.append(name)
+    return _Layout(dof, element_dofs, n_dofs, fixed, springs, keys)
 
+
+def _numbers(robot: Robot, layout: _Layout, shear_deformation: bool) -> tuple[np.ndarray, np.ndarray, list[float]]:
+    """A robot's member lengths, members' local stiffness ``(E, 6, 6)`` and its springs' stiffnesses."""
     lengths = member_lengths(robot)
     EA, EI, kGA = _rigidities(robot, shear_deformation)
     local_k = local_stiffness(EA, EI, lengths, shear_parameter(EI, kGA, lengths))
     if robot.loadcell.compliance == "matrix":  # the cell as its measured 2x2 cantilever flexibility
         for member in LOADCELL_MEMBERS:
             local_k[member] = flexibility_stiffness(EA[member], lengths[member], robot.loadcell.flexibility)
-    frame = make_frame(n_dofs, 2, element_dofs, MEMBER_AXIS, local_k, fixed, springs, spring_k)
-    return ArmModel(robot, frame, lengths, _member_offsets(lengths), dof, shear_deformation)
+    spring_k = [robot.motors.stiffness if key == "motors" else robot.joints.at(key).stiffness for key in layout.spring_keys]
+    return lengths, local_k, spring_k
 
 
 def node_positions(model: ArmModel, theta1, theta2) -> dict[str, np.ndarray]:

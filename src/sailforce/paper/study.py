@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..estimate.estimator import estimate_force
-from ..fem.model import ArmModel, build_model
+from ..fem.model import ArmModel, build_model, build_models
 from ..fem.response import ArmResponse, simulate_model, simulate_models
 from ..fit.matrix import fit_matrix_compensator
 from ..robot import Robot
@@ -325,7 +325,7 @@ def table4(robot: Robot, transduction: str = "deflection", *, protocol: Protocol
 def table4_many(robots, transduction: str = "deflection", *, protocol: Protocol = Protocol()) -> list[np.ndarray]:
     """:func:`table4` of each of ``robots``, their frames solved together (:func:`~sailforce.fem.response.simulate_models`)."""
     theta1, theta2, order, split = _table4_plan(protocol)
-    responses = simulate_models([build_model(robot) for robot in robots], theta1, theta2)
+    responses = simulate_models(build_models(robots), theta1, theta2)
     return [_table4_rows(robot.arm, theta1, theta2, order, split, response.signal(transduction))
             for robot, response in zip(robots, responses)]  # fmt: skip
 
