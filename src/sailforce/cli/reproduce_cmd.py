@@ -42,9 +42,9 @@ DEFAULT_DPI = 110  #: figure resolution: sharp on screen, ~1 MB of HTML per pass
 @click.option("--seed-model/--no-seed-model", default=True, show_default=True,
               help="Fit structure families to the seed's Table 4 (\"What was the seed's model?\"; about 25 s on two "
               "cores, a few when cached).")
-@click.option("--workers", type=click.IntRange(1, 512), default=None,
-              help="Processes that fit the seed-model families, the studies' figures drawn meanwhile. Default: one "
-              "per core.")
+@click.option("--workers", type=click.IntRange(1, 512), default=None, envvar="SAIL_WORKERS",
+              help="Processes that fit the seed-model families, the studies' figures drawn meanwhile. Default: "
+              "$SAIL_WORKERS, else one per core.")
 @click.option("--no-cache", is_flag=True,
               help="Fit the seed-model families afresh, neither reading nor writing the fit cache "
               "($SAIL_CACHE_DIR, else ~/.cache/sailforce/fits; an entry answers only the same fit by the same code).")
