@@ -57,6 +57,21 @@ def test_a_device_clock_is_mapped_through_its_offset_and_drift():
     assert np.max(np.abs(later[500:] - 0.015 - (true[500:2000] + 100.0))) <= 1e-3
 
 
+def test_rows_read_late_by_a_stalled_reader_do_not_bend_the_clock():
+    """The first 40 rows read 0.9 s late (the reader loading its kernel), then a gap, then the stream on time: a fit
+    through every bin's least delay took the passing delay for a drift of -1/3 (stamps 0.13-0.37 s off, CI on
+    385608e); the envelope leaves out hull edges steeper than any clock drifts, so the stamps hold 2 ms again."""
+    rng = np.random.default_rng(1)
+    device = lambda true: 1000.0 + (1 + 50e-6) * true
+    clock = DeviceClock()
+    early = 100.0 + 0.002 * np.arange(40)
+    clock.to_lsl(device(early), np.maximum(early + 0.015, 100.9))
+    true = early[-1] + 1.0 + 0.002 * np.arange(960)
+    arrival = true + 0.015 + rng.exponential(2e-4, true.size)
+    mapped = np.concatenate([clock.to_lsl(device(true[i:i + 10]), arrival[i:i + 10]) for i in range(0, true.size, 10)])
+    assert np.max(np.abs(mapped[25:] - 0.015 - true[25:])) <= 2e-3
+
+
 def test_a_regular_stream_declares_its_rate():
     assert nominal_rate(0.002 * np.arange(64) + 0.00001 * np.sin(np.arange(64))) == pytest.approx(500.0, rel=1e-3)
     assert nominal_rate(np.cumsum(np.random.default_rng(1).exponential(0.002, 64))) == 0.0

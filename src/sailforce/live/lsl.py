@@ -86,13 +86,18 @@ RATE_PROBE_WAIT_S = 1.0
 
 class DeviceClock:
     """A device's clock (its samples' ``t_s``) mapped to LSL's: ``t + offset(t)``, with the offset the lower envelope
-    of ``arrival - t`` (transport only adds delay), fitted as a line over the last :data:`WINDOW_S` (the device's
-    drift) through each :data:`BIN_S` bin's least delay.  A step back in ``t`` or a jump of the offset beyond
-    :data:`RESET_S` (a device that restarted) starts the fit again."""
+    of ``arrival - t`` (transport only adds delay).  Each :data:`BIN_S` bin of the last :data:`WINDOW_S` keeps its
+    least delay; the offset is the line fitted through the newest run of the bins' lower convex hull whose edges
+    slope no more than :data:`MAX_DRIFT` (the device's drift), as clock-skew estimation from one-way delays does
+    (Moon, Skelly and Towsley, IEEE INFOCOM 1999).  An edge steeper than any clock drifts is a delay that passed (a
+    reader that stalled on its first rows), and the hull before it is left out.  A step back in ``t`` or a jump of
+    the offset beyond :data:`RESET_S` (a device that restarted) starts the fit again."""
 
     BIN_S = 1.0
     WINDOW_S = 60.0
     RESET_S = 1.0
+    #: A clock drifts against LSL's by at most this (a ceramic resonator's 0.5 %, with room): a steeper slope is not a drift.
+    MAX_DRIFT = 0.01
 
     def __init__(self) -> None:
         self._bins: deque[list[float]] = deque()  # [bin, t at the least delay, least delay]
@@ -102,8 +107,8 @@ class DeviceClock:
         """The fitted ``arrival - t`` at ``t``."""
         if not self._bins:
             return np.full(np.shape(t), np.nan)
-        points = np.array([b[1:] for b in self._bins])
-        if len(points) < 3 or np.ptp(points[:, 0]) < self.BIN_S:
+        points = _drifting_envelope(np.array([b[1:] for b in self._bins]), self.MAX_DRIFT)
+        if len(points) < 2 or np.ptp(points[:, 0]) < self.BIN_S:
             return np.full(np.shape(t), points[:, 1].min())
         slope, intercept = np.polyfit(points[:, 0] - points[0, 0], points[:, 1], 1)
         return intercept + slope * (np.asarray(t) - points[0, 0])
@@ -129,6 +134,21 @@ class DeviceClock:
         self.update(t, arrival)
         mapped = t + self.offset(t)
         return np.where(np.isfinite(mapped), mapped, arrival)
+
+
+def _drifting_envelope(points: np.ndarray, max_drift: float) -> np.ndarray:
+    """The newest run of the lower convex hull of ``points`` ``(n, 2)`` (time, delay; in time order) whose edges slope
+    by at most ``max_drift``: the vertices a clock's drift can join."""
+    hull: list[np.ndarray] = []
+    for point in points:  # Andrew's monotone chain, lower half
+        while len(hull) >= 2 and ((hull[-1][0] - hull[-2][0]) * (point[1] - hull[-2][1])
+                                  - (hull[-1][1] - hull[-2][1]) * (point[0] - hull[-2][0])) <= 0:  # fmt: skip
+            hull.pop()
+        hull.append(point)
+    start = len(hull) - 1
+    while start > 0 and abs(hull[start][1] - hull[start - 1][1]) <= max_drift * (hull[start][0] - hull[start - 1][0]):
+        start -= 1
+    return np.array(hull[start:])
 
 
 def nominal_rate(t: np.ndarray) -> float:
