@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,7 +62,8 @@ def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints:
     ``workers`` processes (:func:`~sailforce.paper.seed_model.fit_families`; ``sail reproduce``: one per core).
     ``with_studies(studies)``, if given, is called once the studies are done, while
     the families are fitted (``sail reproduce`` writes the studies' tables and
-    figures then).  ``fit_cache_dir`` caches the families' fits (``sail reproduce``:
+    figures then).  With ``workers`` > 1 the solid's poses are solved on a thread of their own while the
+    families are fitted.  ``fit_cache_dir`` caches the families' fits (``sail reproduce``:
     :func:`~sailforce.io.cache.default_cache_dir` ``("fits")`` unless ``--no-cache``).
     """
     say = progress or (lambda step: None)
@@ -75,16 +77,32 @@ def reproduce(robot: Robot, *, transduction: str = "deflection", compare_joints:
     fits = None
     done = tuple(studies)
     notes: list[str] = []
-    if seed_model:
-        fits = seed_model_study(seed_robot or robot, studies[0].protocol, progress=lambda name: say(f"seed model: {name} fitted"),
-                                workers=workers, while_fitting=None if with_studies is None else lambda: with_studies(done),
-                                cache_dir=fit_cache_dir, notes=notes)  # fmt: skip
-    elif with_studies is not None:
-        with_studies(done)
-    solid_study = None
-    if solid:
-        say(f"solid model, {robot.joints.label} joints ({solid_mesh_size * 1e3:g} mm)")
-        solid_study = solid_pass(robot, studies[0], solid_mesh_size)
+    with ThreadPoolExecutor(1) as background:
+        solid_future = None
+        if solid:
+            from ..solid.arm import check_joints
+
+            check_joints(robot)  # refused before anything runs
+            if workers > 1 and seed_model:  # the solid's CalculiX solves run while the families are fitted
+                say(f"solid model, {robot.joints.label} joints ({solid_mesh_size * 1e3:g} mm), with the seed model")
+                solid_future = background.submit(solid_pass, robot, studies[0], solid_mesh_size)
+        try:
+            if seed_model:
+                fits = seed_model_study(seed_robot or robot, studies[0].protocol,
+                                        progress=lambda name: say(f"seed model: {name} fitted"), workers=workers,
+                                        while_fitting=None if with_studies is None else lambda: with_studies(done),
+                                        cache_dir=fit_cache_dir, notes=notes)  # fmt: skip
+            elif with_studies is not None:
+                with_studies(done)
+            solid_study = None
+            if solid_future is not None:
+                solid_study = solid_future.result()
+            elif solid:
+                say(f"solid model, {robot.joints.label} joints ({solid_mesh_size * 1e3:g} mm)")
+                solid_study = solid_pass(robot, studies[0], solid_mesh_size)
+        except BaseException:
+            background.shutdown(wait=False, cancel_futures=True)
+            raise
     return Reproduction(done, seconds, fits, solid_study, tuple(notes))
 
 
