@@ -26,6 +26,10 @@ STAMP_TOL_S = 2e-3
 SETTLE_SAMPLES = 25
 #: The bound on a stamp while the envelope settles [s]
 SETTLING_TOL_S = 20e-3
+#: Samples an inlet may miss when liblsl breaks off its data connection and re-opens it, as it logs ("Stream
+#: transmission broke off ... re-connecting"): 2 were lost so in a loaded CI run on e47f1c0.  A late inlet, which the
+#: count guards against, missed hundreds.
+RECONNECT_LOSS = 10
 
 
 def _pull(inlet, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -152,7 +156,7 @@ def test_estimate_lsl_out_stamps_are_the_samples_times(cals, tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "out.csv")))
     # an inlet gets the samples pushed while it is connected; each is its row by fx, which load1 makes unique
     true_of = {float(row["fx_N"]): float(row["true_lsl"]) for row in rows}
-    assert len(rows) == len(true_of) == n and n - first <= stamps.size <= n
+    assert len(rows) == len(true_of) == n and n - first - RECONNECT_LOSS <= stamps.size <= n
     true = np.array([true_of[fx] for fx in samples[:, 0]])
     assert np.max(np.abs(stamps[SETTLE_SAMPLES:] - true[SETTLE_SAMPLES:])) <= STAMP_TOL_S
     assert np.max(np.abs(stamps[:SETTLE_SAMPLES] - true[:SETTLE_SAMPLES])) <= SETTLING_TOL_S
