@@ -38,10 +38,10 @@ LINK_FLAGS = ["--specs=nano.specs", "--specs=rdimon.specs", "-u", "_printf_float
 TRACE_LINE = re.compile(rb"^Trace \d+: \S+ \[[0-9a-f]+/([0-9a-f]+)/")
 
 
-def _build(tmp: Path, program: str, bench_cal: str, name: str) -> Path:
+def _build(tmp: Path, program: str, bench_cal: str, name: str, defines: tuple[str, ...] = ()) -> Path:
     (tmp / "bench_cal.h").write_text(bench_cal)
     exe = tmp / f"{name}.elf"
-    command = ["arm-none-eabi-gcc", "-std=c99", "-Os", *CPU_FLAGS, "-DSAIL_BENCH_NO_CLOCK", f"-I{C / 'include'}",
+    command = ["arm-none-eabi-gcc", "-std=c99", "-Os", *CPU_FLAGS, "-DSAIL_BENCH_NO_CLOCK", *defines, f"-I{C / 'include'}",
                f"-I{tmp}", *map(str, sorted((C / "src").glob("*.c"))), str(C / "bench" / program),
                str(C / "qemu" / "startup.c"), *LINK_FLAGS, "-lm", "-o", str(exe)]  # fmt: skip
     subprocess.run(command, check=True, capture_output=True)
@@ -103,23 +103,27 @@ def run() -> list[tuple[str, str]]:
         name = re.search(r"static const sail_calibration (\w+) =", default.read_text()).group(1)
         cases = [
             ("sail_estimate, matrix (default calibration)", "bench_estimate.c", f'#include "{default}"\n#define BENCH_CAL {name}\n',
-             "sail_estimate", TARGET_INSTRUCTIONS, CALLS, 0),
+             "sail_estimate", TARGET_INSTRUCTIONS, CALLS, 0, ()),
             ("sail_estimate, seed", "bench_estimate.c", f'#include "{vectors / "cal_seed.h"}"\n#define BENCH_CAL sail_cal_seed\n',
-             "sail_estimate", None, CALLS, 0),
+             "sail_estimate", None, CALLS, 0, ()),
             ("sail_motion_step, 1 kHz, 101-sample window (per tick, the window full)", "bench_motion.c",
              f'#include "{vectors / "cal_motion.h"}"\n#define BENCH_CAL sail_cal_motion\n#define BENCH_DYN sail_cal_motion_dynamics\n',
-             "sail_motion_step", TARGET_TICK_INSTRUCTIONS, CALLS + WARM_UP, WARM_UP),
+             "sail_motion_step", TARGET_TICK_INSTRUCTIONS, CALLS + WARM_UP, WARM_UP, ()),
             ("sail_multirate_step, HX711s at 80 SPS, 1 kHz ticks (mean per tick, the ring full)", "bench_multirate.c",
              f'#include "{vectors / "cal_multirate.h"}"\n#define BENCH_CAL sail_cal_multirate\n'
              "#define BENCH_DYN sail_cal_multirate_dynamics\n#define BENCH_ADC sail_cal_multirate_adc\n",
-             "sail_multirate_step", TARGET_TICK_INSTRUCTIONS, TICKS + WARM_UP, WARM_UP),
+             "sail_multirate_step", TARGET_TICK_INSTRUCTIONS, TICKS + WARM_UP, WARM_UP, ()),
+            ("sail_multirate_step, the same with M and d at every tick (-DSAIL_TICK_STRIDE=1, mean per tick)",
+             "bench_multirate.c", f'#include "{vectors / "cal_multirate.h"}"\n#define BENCH_CAL sail_cal_multirate\n'
+             "#define BENCH_DYN sail_cal_multirate_dynamics\n#define BENCH_ADC sail_cal_multirate_adc\n",
+             "sail_multirate_step", None, TICKS + WARM_UP, WARM_UP, ("-DSAIL_TICK_STRIDE=1",)),
             ("sail_multirate_step, the same without the dynamic term (mean per tick)", "bench_multirate.c",
              f'#include "{vectors / "cal_multirate.h"}"\n#define BENCH_CAL sail_cal_multirate\n'
              "#define BENCH_STATIC 1\n#define BENCH_ADC sail_cal_multirate_adc\n",
-             "sail_multirate_step", None, TICKS + WARM_UP, WARM_UP),
+             "sail_multirate_step", None, TICKS + WARM_UP, WARM_UP, ()),
         ]  # fmt: skip
-        for i, (label, program, header, function, target, calls, skip) in enumerate(cases):
-            exe = _build(tmp, program, header, f"case{i}")
+        for i, (label, program, header, function, target, calls, skip, defines) in enumerate(cases):
+            exe = _build(tmp, program, header, f"case{i}", defines)
             n, worst = instructions_per_call(exe, function, calls, tmp, skip)
             verdict = f"   (target <= {target}: {'met' if n <= target else 'NOT met'})" if target else ""
             rows.append((f"{label}: Thumb-2 instructions/call", f"{n:10.0f}{verdict}"))

@@ -106,6 +106,10 @@ enum sail_check sail_multirate_init(sail_multirate_state *state, const sail_cali
     state->tick_gap = (sail_real)(SAIL_GAP_STEPS * adc->tick);
     state->ticks = 0;
     state->newest = SAIL_MAX_TICKS - 1;
+    state->knot_mask = SAIL_TICK_STRIDE;  /* the knots' stride (sail.h): at least SAIL_KNOTS_PER_PERIOD a period */
+    while (state->knot_mask > 1 && state->knot_mask * adc->tick * SAIL_KNOTS_PER_PERIOD > adc->period)
+        state->knot_mask /= 2;
+    state->knot_mask -= 1;
     memset(state->tick, 0, sizeof state->tick);  /* every slot a defined value: the epoch's moves shift them all */
     memset(state->cell, 0, sizeof state->cell);
     for (i = 0; i < 2; i++)
@@ -213,28 +217,32 @@ typedef struct {
 } window_sums;
 
 /* Take up to `count` (>= 1) ticks from slot `top` down (slots top - count + 1 .. top, newest first) into cell i's window
- * sums: stops at the first tick before the window, and returns how many it took.  The weight is the spline's piece
- * at x = (late - t) / period + 1 (pieces outside the window are zero), by Horner's rule: unrolled for the HX711's
- * and the ADS1232's sinc^4. */
+ * sums: stops at the first tick before the window, and returns how many it took.  Every tick taken gives its flags,
+ * and the knots among them (slots that are multiples of knot_mask + 1: SAIL_TICK_STRIDE in sail.h) their weighted
+ * rows and dynamic term.  The weight is the spline's piece at x = (late - t) / period + 1 (pieces outside the window
+ * are zero), by Horner's rule: unrolled for the HX711's and the ADS1232's sinc^4. */
 static SAIL_OWN_CALL int window_run(const sail_multirate_state *state, int top, int count, int i, window_sums *sums)
 {
     const sail_real late = sums->late, inverse = sums->inverse, start = sums->start;
     const int n = state->adc->sinc_order;
-    const sail_adc_tick *const base = &state->tick[top - count + 1];
+    const sail_adc_tick *const ticks = state->tick;
     const sail_real(*const spline)[SAIL_MAX_SINC_ORDER] = state->spline;
     sail_real total = sums->total, row0 = sums->row0, row1 = sums->row1, dynamic = sums->dynamic;
-    int flags = sums->flags, j;
-    j = count;  /* at least 1: a loop that tests at its end */
+    const int mask = state->knot_mask, bottom = top - count + 1;
+    int flags = sums->flags, slot = top;
 #define SAIL_WINDOW_LOOP(WEIGHT)                                                           \
-    do {                                                                                   \
-        const sail_adc_tick *const tick = &base[j - 1];                                    \
-        const sail_real t = tick->t, x = (late - t) * inverse + 1, *v = tick->v[i];        \
+    for (; slot >= bottom; slot--) {                                                       \
+        const sail_adc_tick *const tick = &ticks[slot];                                    \
+        const sail_real t = tick->t, *v = tick->v[i];                                      \
+        sail_real x, y, w;                                                                 \
         const sail_real *piece;                                                            \
-        sail_real y, w;                                                                    \
         int p;                                                                             \
         if (t < start)                                                                     \
             break;                                                                         \
         flags |= tick->flags;                                                              \
+        if (slot & mask)  /* between knots: its flags only */                              \
+            continue;                                                                      \
+        x = (late - t) * inverse + 1;                                                      \
         p = (int)x;  /* x + 1 >= 0: the truncation is the floor; piece 0 is before the window */ \
         y = x - (sail_real)p;                                                              \
         piece = spline[p];                                                                 \
@@ -243,7 +251,7 @@ static SAIL_OWN_CALL int window_run(const sail_multirate_state *state, int top, 
         row0 += w * v[0];                                                                  \
         row1 += w * v[1];                                                                  \
         dynamic += w * v[2];                                                               \
-    } while (--j > 0);
+    }
     if (n == 4) {
         SAIL_WINDOW_LOOP(w = ((piece[0] * y + piece[1]) * y + piece[2]) * y + piece[3])
     } else {
@@ -255,7 +263,7 @@ static SAIL_OWN_CALL int window_run(const sail_multirate_state *state, int top, 
     sums->row1 = row1;
     sums->dynamic = dynamic;
     sums->flags = flags;
-    return count - j;
+    return top - slot;
 }
 
 /* A conversion of cell i: its window over the ticks held, and the entry it adds to the cell's history. */
@@ -477,8 +485,11 @@ static void process(sail_multirate_state *state, const sail_tick *tick, sail_rea
         slot->t = t;
         slot->theta[0] = tick->theta1;
         slot->theta[1] = tick->theta2;
-        slot->flags = tick_parts(state->cal, state->dyn, tick->theta1, tick->theta2, known, rates, slot)
-                      ? 0 : SAIL_TICK_UNKNOWN;
+        if ((state->newest & state->knot_mask) == 0)  /* a knot: M and d (sail.h's SAIL_TICK_STRIDE) */
+            slot->flags = tick_parts(state->cal, state->dyn, tick->theta1, tick->theta2, known, rates, slot)
+                          ? 0 : SAIL_TICK_UNKNOWN;
+        else  /* between knots: whether its rates are known */
+            slot->flags = known ? 0 : SAIL_TICK_UNKNOWN;
         if (state->ticks > 1) {
             sail_adc_tick *before = &state->tick[tick_slot(state, 1)];
             if (t - before->t > state->tick_gap)
@@ -533,7 +544,7 @@ int sail_multirate_step(sail_multirate_state *state, const sail_tick *in, sail_t
             return 0;
         oldest = sail_rates_oldest(&state->rates, state->pending);
         state->pending--;
-        if (whole)
+        if (whole && ((state->newest + 1) & state->knot_mask) == 0)  /* the tick out goes to a knot's slot */
             sail_rates_read(&state->rates, rates);
         if (held)
             *held = state->held[oldest];
