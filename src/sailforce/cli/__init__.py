@@ -54,6 +54,7 @@ _COMMAND_MODULES = {
     "export-c": "export_cmd",
     "fit-poly": "fitpoly_cmd",
     "identify": "identify_cmd",
+    "plan-calibration": "plan_cmd",
     "live": "live_cmd",
     "reproduce": "reproduce_cmd",
     "robot": "robot_cmd",

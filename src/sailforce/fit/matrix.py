@@ -99,6 +99,16 @@ def fit_matrix_with_offsets(
     return MatrixCompensator(arm, model.coefficients, delta_range, tuple(scores)), offsets
 
 
+def fit_matrix_at_order(arm: Links, theta1, theta2, fx, fy, load1, load2, order: int,
+                        delta_range: tuple[float, float]) -> tuple[MatrixCompensator, np.ndarray]:  # fmt: skip
+    """The least-squares series of one ``order`` over ``delta_range`` [rad], with the offsets: no cross-validation
+    (a calibration plan's model, :mod:`sailforce.plan`)."""
+    theta1, theta2, fx, fy, load1, load2 = (np.ravel(a) for a in as_float_arrays(
+        theta1=theta1, theta2=theta2, fx=fx, fy=fy, load1=load1, load2=load2))  # fmt: skip
+    torque = (torque_rows(arm, theta1, theta2) @ np.stack([fx, fy], axis=-1)[..., None])[..., 0]  # (N, 2), Eq. 7
+    return _lstsq_matrix(arm, theta1 - theta2, torque, np.stack([load1, load2], axis=-1), order, delta_range, True)
+
+
 def _lstsq_matrix(arm: Links, delta, torque, loads, order: int, delta_range, fit_offsets: bool):
     # s_i = o_i + sum_k sum_a c[k, i, a] T_k(x) T_a is linear in (c, o): one design matrix serves both cells.
     basis = np.polynomial.chebyshev.chebvander(_chebyshev_argument(delta, delta_range), order)  # (N, K+1)
