@@ -90,7 +90,7 @@ class ErrorMap:
     force_N: float
 
     def worst_within(self, low: float, high: float) -> float:
-        """The largest worst-direction error over delta in [low, high] [rad]."""
+        """The largest worst-direction error over the deltas from low to high [rad]."""
         inside = (self.delta >= low - 1e-12) & (self.delta <= high + 1e-12)
         return float(self.worst_N[inside].max())
 
