@@ -509,3 +509,22 @@ def test_lsl_inlet_that_finds_nothing_says_so():
 
     with pytest.raises(SailError, match="no Lab Streaming Layer stream of that name answered within 0.5 s"):
         inlet_blocks(f"sail-nobody-{uuid.uuid4().hex[:8]}", timeout=0.5)
+
+
+def test_a_gathered_stream_comes_in_blocks_at_most_once_a_period():
+    """Lines that arrive one a millisecond come in blocks of about ten with a 10 ms period (each estimate's fixed cost
+    shared), every line once and in order; without a period none waits for the next."""
+    from sailforce.live.sources import gathered
+
+    def arriving(n: int, every_s: float):
+        for k in range(n):
+            time.sleep(every_s)
+            yield b"%d\n" % k
+
+    blocks = list(gathered(arriving(200, 0.001), period_s=0.05))
+    assert [line for block in blocks for line, _ in block] == [b"%d\n" % k for k in range(200)]
+    assert len(blocks) <= 200 * 0.001 / 0.05 * 3 + 2  # at 1 ms a line: about 4 blocks (slower arrival: fewer)
+    stamps = [stamp for block in blocks for _, stamp in block]
+    assert stamps == sorted(stamps)  # each line keeps its own arrival time, not its block's
+    alone = list(gathered(arriving(5, 0.05)))
+    assert sum(len(block) for block in alone) == 5 and len(alone) >= 4  # 50 ms apart: each alone, unless the machine stalls

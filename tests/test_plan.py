@@ -1,4 +1,4 @@
-"""Calibration planning (issue 33, part 1): hold times, the predicted error against simulated calibrations, the
+"""Calibration planning: hold times, the predicted error against simulated calibrations, the
 plan against the seed's grid and a uniform grid, the order of the holds, bad input and the command."""
 
 from __future__ import annotations

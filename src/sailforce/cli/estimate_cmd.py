@@ -22,6 +22,10 @@ from . import cli
 from ._options import bag_topic_options, latency_option, lowpass_options, make_lowpass, readings_parquet
 from ._progress import progress_bar, skipped_note
 
+#: A live stream is estimated in blocks at most this often [ms]: a 1 kHz stream in blocks of about ten lines, each
+#: estimate's fixed cost shared, for at most 10 ms of added delay (bench/bench_stream.py measures both).
+BLOCK_MS = 10.0
+
 #: The columns a bag's messages need beyond the readings: each row's time, and the measured rates as velocities.
 BAG_ALSO = ("t_s", "omega1_dps", "omega2_dps")
 #: The column an LSL outlet's stamps and nominal rate come from.
@@ -61,10 +65,14 @@ LSL_ALSO = ("t_s",)
                    "(1 where new offsets begin) before status (docs/reference/drift.md).  Needs t_s.")
 @click.option("--rezero-log", "rezero_log", type=click.Path(dir_okay=False, path_type=Path), default=None,
               metavar="LOG.csv", help="--rezero: write every decision, made or refused, with its time and reason.")
+@click.option("--block-ms", "block_ms", type=click.FloatRange(0.0, 1000.0), default=BLOCK_MS,
+              show_default=True, help="A live stream (stdin, --serial) is estimated in blocks at most this often [ms]: "
+              "each line waits at most that long for the lines after it, and the estimate's fixed cost is shared "
+              "(0: every line as it comes). The output bytes do not depend on it.")  # fmt: skip
 @click.option("-q", "--quiet", is_flag=True, help="No progress display (on a terminal, a bar; elsewhere, a line every few seconds).")
 @lowpass_options
 def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_in, lsl_out, latency_ms, mcap_out, mcap_topics,
-                     joint_topic, load_topic, xdf_stream, rezero, rezero_log, quiet, lowpass_hz, sample_rate_hz,
+                     joint_topic, load_topic, xdf_stream, rezero, rezero_log, block_ms, quiet, lowpass_hz, sample_rate_hz,
                      lowpass_order):  # fmt: skip
     """Estimate the end-effector force for every row of IN.csv (or .parquet).
 
@@ -144,7 +152,7 @@ def estimate_command(cal_path, source, output, serial_port, baud, columns, lsl_i
         bag = stack.enter_context(BagWriter(mcap_out, topics)) if mcap_out is not None else None
         if live:
             counts = _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns, bag,
-                           latency_ms / 1e3, zero)  # fmt: skip
+                           latency_ms / 1e3, zero, block_ms / 1e3)  # fmt: skip
         else:
             on_rows = None if bag is None else (lambda chunk, columns, status: bag.write(chunk.values, columns, status))
             unit = "rows" if is_parquet(source) else "bytes"
@@ -260,7 +268,7 @@ def _bag_table(source: Path, joint_topic: str, load_topic: str, stack: ExitStack
 
 
 def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console, columns=None, bag=None, latency_s=0.0,
-          rezero=None):  # fmt: skip
+          rezero=None, block_s=0.0):  # fmt: skip
     """A live stream to stdout or to a file written atomically; an interrupt keeps what was recorded."""
     from ..live import sources
     from ..live.pipeline import StampedLines, bag_listener, rows_of
@@ -294,9 +302,9 @@ def _live(cal, output, serial_port, baud, lsl_in, lsl_out, lowpass, dt, console,
             port = stack.enter_context(sources.serial_lines(serial_port, baud))
             stack.callback(lambda: _report_frames(console, port))
             blocks = sources.gathered(sources.from_header(port, columns=columns, on_skipped=skipped_note(console, name)),
-                                      seconds_per_byte=sources.serial_seconds_per_byte(baud))  # fmt: skip
+                                      seconds_per_byte=sources.serial_seconds_per_byte(baud), period_s=block_s)  # fmt: skip
         else:
-            blocks = sources.gathered(sources.stdin_lines())
+            blocks = sources.gathered(sources.stdin_lines(), period_s=block_s)
         if lsl_out is not None:
             listeners.append(_outlet(lsl_out, dt, latency_s, blocks))
             console.print(f"publishing the force as the Lab Streaming Layer stream {lsl_out!r}", highlight=False)

@@ -275,16 +275,20 @@ def stdin_lines() -> Iterator[bytes]:
 GATHER_LINES = 4096
 
 
-def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES, seconds_per_byte: float = 0.0) -> Iterator[Block]:
+def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES, seconds_per_byte: float = 0.0,
+             period_s: float = 0.0) -> Iterator[Block]:  # fmt: skip
     """Blocks of every stamped line that has arrived, read on a thread of their own: a stream estimated in blocks.
 
     A stream that arrives faster than it is estimated line by line (a pipe,
     a 1 kHz port behind a dynamic term) comes in blocks of all that is
-    waiting, up to ``limit`` lines; one that arrives slowly comes a line at
-    a time, as :func:`stamped` gives it.  No line waits for others to come:
-    a block is what had already arrived.  Each line keeps its arrival time,
-    less its transmission time at ``seconds_per_byte`` (a serial port's
-    10 / baud: its first byte left the device that long before the last).
+    waiting, up to ``limit`` lines.  With ``period_s`` a block is handed over
+    at most that often: a line that arrives sooner waits for the lines that
+    follow it, at most ``period_s`` (``sail estimate --block-ms``, 10 ms by
+    default); without, no line waits for others, and one that arrives
+    slowly comes a line at a time, as :func:`stamped` gives it.  Each line
+    keeps its arrival time, less its transmission time at
+    ``seconds_per_byte`` (a serial port's 10 / baud: its first byte left the
+    device that long before the last).
     """
     import queue
     import threading
@@ -302,6 +306,7 @@ def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES, seconds_per_b
             waiting.put(end)
 
     threading.Thread(target=read, name="sail-stream-reader", daemon=True).start()
+    due = time.monotonic()  # the next block's earliest hand-over
     while True:
         item = waiting.get()
         block: Block = []
@@ -310,10 +315,12 @@ def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES, seconds_per_b
             if len(block) >= limit:
                 break
             try:
-                item = waiting.get_nowait()
+                wait = due - time.monotonic()
+                item = waiting.get(timeout=wait) if wait > 0 else waiting.get_nowait()
             except queue.Empty:
                 break
         if block:
+            due = time.monotonic() + period_s
             yield block
         if item is end:
             return
