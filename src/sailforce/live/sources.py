@@ -309,14 +309,16 @@ def gathered(lines: Iterator[bytes], *, limit: int = GATHER_LINES, seconds_per_b
     due = time.monotonic()  # the next block's earliest hand-over
     while True:
         item = waiting.get()
+        wait = due - time.monotonic()
+        if wait > 0 and item is not end and not isinstance(item, BaseException):
+            time.sleep(wait)  # one wake-up for the block, not one for each line that comes meanwhile
         block: Block = []
         while item is not end and not isinstance(item, BaseException):
             block.append(item)
             if len(block) >= limit:
                 break
             try:
-                wait = due - time.monotonic()
-                item = waiting.get(timeout=wait) if wait > 0 else waiting.get_nowait()
+                item = waiting.get_nowait()
             except queue.Empty:
                 break
         if block:
