@@ -100,15 +100,24 @@ def map_deltas() -> np.ndarray:
     return np.radians(np.linspace(*MAP_DELTA_RANGE_DEG, MAP_POINTS))
 
 
-def _map_b(model: Linearised, force_N: float) -> tuple[np.ndarray, np.ndarray]:
-    """B = M^-1 A at every map point, ``(deltas, directions, 2, p)``, and the deltas [rad] (theta2 = 0)."""
-    delta = map_deltas()
+def map_points(force_N: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The map's points, deltas then directions: delta [rad] (theta2 = 0) and the force (fx, fy) [N] of each."""
     psi = np.linspace(0.0, 2.0 * np.pi, MAP_DIRECTIONS, endpoint=False)
-    d, p = (a.ravel() for a in np.meshgrid(delta, psi, indexing="ij"))
+    d, p = (a.ravel() for a in np.meshgrid(map_deltas(), psi, indexing="ij"))
+    return d, force_N * np.cos(p), force_N * np.sin(p)
+
+
+def map_b(model: Linearised, force_N: float) -> np.ndarray:
+    """B = M^-1 A at every map point, ``(points, 2, p)``, in :func:`map_points`' order."""
+    d, fx, fy = map_points(force_N)
     zero = np.zeros_like(d)
-    a = model.regressor(d, zero, force_N * np.cos(p), force_N * np.sin(p))
-    b = np.linalg.solve(model.sensing(d, zero), a)
-    return b.reshape(delta.size, psi.size, 2, model.size), delta
+    return np.linalg.solve(model.sensing(d, zero), model.regressor(d, zero, fx, fy))
+
+
+def _map_b(model: Linearised, force_N: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`map_b` as ``(deltas, directions, 2, p)``, and the deltas [rad]."""
+    delta = map_deltas()
+    return map_b(model, force_N).reshape(delta.size, MAP_DIRECTIONS, 2, model.size), delta
 
 
 def _criterion_weights(model: Linearised, force_N: float) -> np.ndarray:

@@ -23,7 +23,7 @@ from ..fit.identify import ReadingsTarget, identify
 from ..fit.matrix import fit_matrix_at_order
 from ..fit.physics import DEFAULT_TRANSDUCTION, force_from_map
 from ..synthetic import NoiseModel, recording
-from .design import MAP_DIRECTIONS, ErrorMap, covariance, map_deltas
+from .design import MAP_DIRECTIONS, ErrorMap, covariance, map_b, map_deltas, map_points
 from .protocol import Plan
 
 #: Noise draws unless told.
@@ -43,14 +43,11 @@ def simulated_errors(plan: Plan, draws: int = DEFAULT_DRAWS, seed: int = 0, prog
     quiet = NoiseModel(noise_fraction=0.0, quantize=False)
     offsets = np.zeros(2)
     clean = recording(robot, holds.theta1, holds.theta2, holds.fx, holds.fy, noise=quiet, offsets=offsets)[0]
-    delta = map_deltas()
-    psi = np.linspace(0.0, 2.0 * np.pi, MAP_DIRECTIONS, endpoint=False)
-    d, p = (a.ravel() for a in np.meshgrid(delta, psi, indexing="ij"))
+    d, fx, fy = map_points(force)
     zero = np.zeros_like(d)
-    fx, fy = force * np.cos(p), force * np.sin(p)
     truth = recording(robot, d, zero, fx, fy, noise=quiet, offsets=offsets)[0]
     a = model.regressor(holds.theta1, holds.theta2, holds.fx, holds.fy) / holds.sigma[:, None, None]
-    b = np.linalg.solve(model.sensing(d, zero), model.regressor(d, zero, fx, fy))  # (points, 2, p)
+    b = map_b(model, force)  # (points, 2, p)
     sigma = covariance(model, holds)
     rng = np.random.default_rng(seed)
     fitted, linear = np.empty((draws, d.size, 2)), np.empty((draws, d.size, 2))
