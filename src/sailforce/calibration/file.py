@@ -113,7 +113,7 @@ class Calibration:
     created: str = ""
     software: str = f"sailforce {__version__}"
     dynamics: DynamicTerm | None = None  #: the inertial and gravity loads to subtract while moving
-    dynamics_source: str = ""  #: "free-motion" (identified) or "prior" (from the robot file)
+    dynamics_source: str = ""  #: "free-motion" or "reference" (identified), or "prior" (from the robot file)
     adc: ADC = ADC()  #: the cells' ADC; a real one (not ``ideal``) makes estimates multi-rate (sailforce.estimate.multirate)
     adc_delay_s: float = 0.0  #: the filter's delay identified beyond the model's N T / 2 [s] (free-motion calibration)
     temperature: TemperatureCompensation | None = None  #: the cells' zero and span per °C, when the data spanned temperatures

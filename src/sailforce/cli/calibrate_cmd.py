@@ -21,7 +21,9 @@ from ..io.files import check_output
 from ..io.rosbag import is_bag, read_bag
 from ..io.tables import read_clean
 from ..io.xdf import is_xdf, read_xdf
-from ..workflows import calibration_run
+from ..reference.align import MAX_CLOCK_OFFSET_S
+from ..reference.sensor import MOUNTS
+from ..workflows import calibration_run, reference_calibration_run
 from . import cli
 from ._options import bag_topic_options, file_only, load_robot, readings_parquet, resolve_reading, robot_option
 from ._progress import progress_bar
@@ -64,7 +66,17 @@ def _parse_capacity(ctx, param, value):
               help="The cells' ADC, overriding the robot file's [adc]: a real one reads DATA (and FREE) as multi-rate "
                    "recordings (t_s, sparse loads) and stores the ADC in the calibration (docs/reference/multirate.md).")
 @click.option("--dynamics", type=click.Choice(("prior", "none")), default=None,
-              help="Without --free-motion: store the robot file's predicted dynamic term, or none (the default).")
+              help="Without --free-motion: store the robot file's predicted dynamic term, or none (the default; with "
+                   "--reference the default identifies it from DATA).")
+@click.option("--reference", "reference", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              metavar="REF.csv", help="A six-axis F/T sensor's recording at the handle (t_s, fx, fy, ... in its own "
+              "frame, on its own clock): the hand force at every sample of DATA, which then needs only t_s, "
+              "theta1_deg, theta2_deg, load1, load2 (docs/guide/reference.md).")
+@click.option("--reference-on", "reference_on", type=click.Choice(MOUNTS), default="link", show_default=True,
+              help="--reference: the sensor turns with the handle's link (theta1), or sits on the base.")
+@click.option("--max-clock-offset-s", "max_clock_offset", type=click.FloatRange(0.0, min_open=True),
+              default=MAX_CLOCK_OFFSET_S, show_default=True,
+              help="--reference: the largest clock offset searched between the two recordings [s].")
 @click.option("--stream", "xdf_stream", default=None, metavar="NAME",
               help="DATA.xdf (a LabRecorder file): the stream of readings and reference forces, its channels labelled "
                    "theta1_deg, theta2_deg, load1, load2, fx_N, fy_N; t_s is pyxdf's LSL time.")
@@ -73,7 +85,8 @@ def _parse_capacity(ctx, param, value):
               help="DATA.mcap: the reference force, a geometry_msgs/msg/WrenchStamped in the base frame [N], paired "
                    "with the joint state and loads of the same stamp.")
 def calibrate_command(data, robot_path, output, kind, free, transduction, quiet, capacity, load_unit, free_motion, adc_name,
-                      dynamics, xdf_stream, joint_topic, load_topic, force_topic):
+                      dynamics, reference, reference_on, max_clock_offset, xdf_stream, joint_topic, load_topic,
+                      force_topic):  # fmt: skip
     """Fit offsets and the sensing map from DATA.csv (or .parquet) with reference forces.
 
     DATA has the columns theta1_deg, theta2_deg, load1, load2 (raw readings
@@ -89,6 +102,11 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     range, if wider): physics extrapolates beyond the calibrated range where
     its structure is right, and cross-validation keeps auto from choosing it
     where it is not.
+
+    With --reference REF.csv the force comes from a six-axis sensor at the
+    handle instead: the clocks are aligned by cross-correlation, the sensor's
+    mount angle and offsets fitted, the static map fitted at rest and the
+    dynamic term in motion, all from DATA.
     """
     if (xdf_stream is not None) != is_xdf(data):
         raise click.UsageError("--stream NAME picks the stream of an XDF file: give both DATA.xdf and --stream"
@@ -97,7 +115,16 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
     free_keys = tuple(k.strip() for k in free.split(",") if k.strip()) if free else None
     if (free_keys or transduction) and kind not in ("physics", "auto"):
         raise click.UsageError("--free and --transduction set up the physics model: use them with --model physics or auto")
-    check_output(output, {"the calibration data": data, "the --robot file": robot_path, "the --free-motion recording": free_motion})
+    check_output(output, {"the calibration data": data, "the --robot file": robot_path, "the --free-motion recording": free_motion,
+                          "the --reference recording": reference})  # fmt: skip
+    if reference is not None:
+        if free_motion is not None or xdf_stream is not None or is_bag(data) or adc_name is not None:
+            raise click.UsageError("--reference reads DATA.csv (or .parquet) against the sensor's recording, a reading "
+                                   "at every tick; leave out --free-motion, --stream, --adc and bags")  # fmt: skip
+        return _calibrate_against_reference(data, reference, robot, output, kind=kind, free=free_keys,
+                                            transduction=transduction, capacity=capacity, load_unit=load_unit,
+                                            dynamics=dynamics or "fit", on=reference_on, max_offset=max_clock_offset,
+                                            quiet=quiet)  # fmt: skip
     if free_motion is not None and dynamics is not None:
         raise click.UsageError("--dynamics chooses a dynamic term without --free-motion; give one or the other")
     console = Console()
@@ -150,6 +177,39 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
         console.print(f"temperature over {low_C:.3g}…{high_C:.3g} °C, about {t.reference_C:.4g} °C: zero {zero} "
                       f"{load_unit}/°C, span {span} ppm/°C (fit RMSE {cal.metrics['fit_rmse_uncompensated_N']:.4g} N "
                       "without them)", highlight=False, soft_wrap=True)  # fmt: skip
+    for note in run.notes:
+        console.print(f"[yellow]note:[/yellow] {note}", highlight=False, soft_wrap=True)
+
+
+def _calibrate_against_reference(data, reference, robot, output, *, kind, free, transduction, capacity, load_unit,
+                                 dynamics, on, max_offset, quiet) -> None:  # fmt: skip
+    console = Console()
+    if kind in ("physics", "auto"):
+        transduction = resolve_reading(robot, transduction, DEFAULT_TRANSDUCTION, console)
+    with progress_bar(console, "fitting the physics model", None, unit="starts",
+                      quiet=quiet or kind not in ("physics", "auto")) as advance:  # fmt: skip
+        result = reference_calibration_run(data, reference, robot=robot, model=kind, free=free,
+                                           transduction=transduction, capacity=capacity, load_unit=load_unit,
+                                           dynamics=dynamics, on=on, max_offset_s=max_offset,
+                                           progress=lambda done, total: advance(1))  # fmt: skip
+    run, rows = result.run, result.rows
+    a, f = rows.alignment, rows.frame
+    console.print(f"reference: its clock {a.offset_s * 1e3:+.3f} ms from the robot's (correlation {a.coarse_offset_s * 1e3:+.1f} "
+                  f"ms, score {a.score:.3g} of 2, the next peak {a.second_score:.3g}); mount {np.degrees(f.mount_rad):.3f} "
+                  f"± {np.degrees(f.mount_se_rad):.3f}° on the {f.on}; offsets {f.offsets_N[0]:+.4g}, {f.offsets_N[1]:+.4g} N",
+                  highlight=False)  # fmt: skip
+    console.print(f"{rows.t.size:,} samples under the reference ({rows.dropped:,} outside it), {int(rows.rest.sum()):,} at "
+                  f"rest; the static fit took {result.static_rows:,} of those", highlight=False)  # fmt: skip
+    if run.fit.physics is not None:
+        _print_physics(console, run.fit.physics)
+    if result.dynamic_fit is not None:
+        _print_dynamics(console, run, data)
+    cal, report = run.calibration, run.fit
+    cal.save(output)
+    low, high = np.degrees(report.delta_range)
+    console.print(f"wrote {output}: model [bold]{report.kind}[/bold] from {report.n_samples} samples at rest over "
+                  f"Δ = {low:.4g}…{high:.4g}°; force RMSE: fit {report.fit_rmse_N:.4g} N, cross-validated "
+                  f"{report.cv_rmse_N:.4g} N")  # fmt: skip
     for note in run.notes:
         console.print(f"[yellow]note:[/yellow] {note}", highlight=False, soft_wrap=True)
 

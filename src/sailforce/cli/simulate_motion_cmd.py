@@ -15,11 +15,18 @@ from ..io.files import check_output, check_sidecar, numeric_table_writer, table_
 from ..motion.dynamics import base_parameters, inertial_parameters, parameter_vector
 from ..motion.multirate import HOLD_S, multirate_columns, record_holds, record_multirate
 from ..motion.reaching import reaching, record
+from ..motion.session import PUSH_BAND_HZ, tremor
+from ..reference.sensor import MOUNTS, REFERENCE_SENSOR_COLUMNS, ReferenceSensor, simulate_reference
 from ..synthetic import NoiseModel, calibration_session, session_offsets
 from . import cli
 from ._options import FINITE, PrimaryOption, load_robot, robot_option
 
-SESSIONS = ("static", "free", "task", "therapy")
+SESSIONS = ("static", "free", "task", "push", "therapy")
+
+#: Each session's rest at each target [s] unless --dwell-s: a push session holds still long enough for the
+#: reference calibration's rows at rest (sailforce.workflows.reference_calibration_run).
+DWELL_S = {"push": 1.5}
+DEFAULT_DWELL_S = 0.3
 
 #: Motion sessions longer than this are refused: an hour at 1 kHz is 3.6 M rows, beyond any lab session.
 MAX_DURATION_S = 3600.0
@@ -37,14 +44,32 @@ MULTIRATE_STATIC_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2",
 @robot_option
 @click.option("--session", type=click.Choice(SESSIONS), default="free", show_default=True,
               help="static: pulley-and-weights calibration poses (for `sail calibrate`); free: the motors move the "
-                   "arm, nobody holds it (for --free-motion); task: a hand pulls toward each target; therapy: "
+                   "arm, nobody holds it (for --free-motion); task: a hand pulls toward each target; push: a hand "
+                   "pushes the handle about in every direction (--push-N; with --reference, for `sail calibrate "
+                   "--reference`); therapy: "
                    "--minutes of reaches, the handle let go now and then, the cells drifting (docs/reference/drift.md).")
 @click.option("--reach-m", "reach", cls=PrimaryOption, type=FINITE, default=0.3, show_default=True, help="Reach length [m].")
 @click.option("--reaches", type=click.IntRange(1, 10_000), default=16, show_default=True, help="Reaches, one after the other.")
 @click.option("--peak-speed-mps", "peak_speed", cls=PrimaryOption, type=FINITE, default=0.75, show_default=True,
               help="Peak hand speed of each minimum-jerk reach [m/s] (0.75 m/s over 0.3 m: 3.1 m/s^2 peak).")
-@click.option("--dwell-s", "dwell", cls=PrimaryOption, type=FINITE, default=0.3, show_default=True,
-              help="Rest at each target [s].")
+@click.option("--dwell-s", "dwell", cls=PrimaryOption, type=FINITE, default=None,
+              help=f"Rest at each target [s]. Default: {DEFAULT_DWELL_S:g}; push: {DWELL_S['push']:g}.")
+@click.option("--push-N", "--push-n", "push_N", type=click.FloatRange(0.0), default=10.0, show_default=True,
+              help="push: the hand's force, rms per axis, 0.1-2 Hz [N].")
+@click.option("--reference", "reference", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              metavar="REF.csv", help="Also write what a six-axis F/T sensor under the handle records (t_s, fx, fy, "
+              "fz, tx, ty, tz in its own frame, on its own clock), for `sail calibrate --reference` and `sail "
+              "validate`; motion sessions with the ideal ADC.")
+@click.option("--reference-rate-Hz", "--reference-rate-hz", "ref_rate", type=FINITE, default=ReferenceSensor.rate_Hz,
+              show_default=True, help="The reference sensor's sampling rate [Hz].")
+@click.option("--reference-noise-N", "--reference-noise-n", "ref_noise", type=click.FloatRange(0.0),
+              default=ReferenceSensor.noise_N, show_default=True, help="Its noise, rms per force axis [N].")
+@click.option("--reference-mount-deg", "ref_mount", type=FINITE, default=float(np.degrees(ReferenceSensor.mount_rad)),
+              show_default=True, help="Its x axis from the link's x axis (or the base's) [deg].")
+@click.option("--reference-clock-offset-s", "ref_clock", type=FINITE, default=ReferenceSensor.clock_offset_s,
+              show_default=True, help="Its clock less the robot's [s].")
+@click.option("--reference-on", "ref_on", type=click.Choice(MOUNTS), default=ReferenceSensor.on, show_default=True,
+              help="link: it turns with the handle's link (theta1); base: it does not.")
 @click.option("--hand-stiffness-N-per-m", "--hand-stiffness-n-per-m", "stiffness", cls=PrimaryOption, type=FINITE,
               default=100.0, show_default=True, help="task: the hand pulls toward the reach's target with this spring [N/m].")
 @click.option("--sample-rate-Hz", "--sample-rate-hz", "rate", cls=PrimaryOption, type=FINITE, default=1000.0,
@@ -75,9 +100,10 @@ MULTIRATE_STATIC_COLUMNS = ("t_s", "theta1_deg", "theta2_deg", "load1", "load2",
 @click.option("--seed", type=click.IntRange(0), default=0, show_default=True, help="The session's noise draw.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="OUT.csv or OUT.parquet; OUT.csv.json beside it holds the truth (offsets, base parameters).")
-def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwell, stiffness, rate, encoder_bits,
-                            noise_fraction, adc_name, hold_s, minutes, release_every, release_s, tremor_N, drift, rig,
-                            seed, output):  # fmt: skip
+def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwell, push_N, reference, ref_rate,
+                            ref_noise, ref_mount, ref_clock, ref_on, stiffness, rate, encoder_bits, noise_fraction,
+                            adc_name, hold_s, minutes, release_every, release_s, tremor_N, drift, rig, seed,
+                            output):  # fmt: skip
     """Simulate a rig's recordings: a static calibration session, or reaching movements with inertia.
 
     \b
@@ -96,12 +122,26 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
     pulley-and-weights calibration (fx_N, fy_N the applied force).  The
     therapy session adds temperature_C and contact (1 while a hand holds
     the handle); its loads drift (--no-drift: they do not), for `sail
-    estimate --rezero`.
+    estimate --rezero`.  The push session's hand pushes the handle about
+    (--push-N) while the robot moves it; --reference adds the recording of a
+    six-axis sensor under the handle (docs/guide/reference.md).
     """
     table_format(output)
     sidecar = check_sidecar(output)
     check_output(output, {"the --robot file": robot_path})
     check_output(sidecar, {"the --robot file": robot_path}, flag=f"the sidecar of -o {output},")
+    dwell = DWELL_S.get(session, DEFAULT_DWELL_S) if dwell is None else dwell
+    sensor = None
+    if reference is not None:
+        table_format(reference, "--reference")
+        check_output(reference, {"the --robot file": robot_path, "-o": output, "the sidecar of -o": sidecar}, flag="--reference")
+        if session == "static":
+            raise click.UsageError("--reference records a motion session (free, task, push, therapy); the static "
+                                   "session's forces are the weights'")  # fmt: skip
+        if not ref_rate > 0:
+            raise click.BadParameter(f"{ref_rate:g} must be positive", param_hint="--reference-rate-Hz")
+        sensor = ReferenceSensor(rate_Hz=ref_rate, noise_N=ref_noise, mount_rad=float(np.radians(ref_mount)),
+                                 clock_offset_s=ref_clock, on=ref_on)  # fmt: skip
     for name, value in (("--reach-m", reach), ("--peak-speed-mps", peak_speed), ("--sample-rate-Hz", rate)):
         if not value > 0:
             raise click.BadParameter(f"{value:g} must be positive", param_hint=name)
@@ -118,6 +158,11 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
              "offsets_counts": offsets.tolist(), "robot_file": str(robot_path) if robot_path else None, "robot": robot}  # fmt: skip
     if not adc.ideal:
         truth |= {"adc": {"model": adc.model, "rate_Hz": adc.rate_Hz, "sinc_order": adc.sinc_order}}
+    if sensor is not None and not adc.ideal:
+        raise click.UsageError(f"--reference simulates the ideal ADC's sessions (a reading at every tick); leave out "
+                               f"--adc {adc.model}")  # fmt: skip
+    if session == "push" and not adc.ideal:
+        raise click.UsageError(f"the push session simulates the ideal ADC (a reading at every tick); leave out --adc {adc.model}")
     if not adc.ideal and session == "static":
         t1, t2, fx, fy, _, _ = calibration_session(robot, seed=seed + 1, noise=noise, offsets=offsets)
         holds = record_holds(robot, adc, t1, t2, fx, fy, hold_s=hold_s, control_rate_hz=rate, noise=noise,
@@ -127,9 +172,10 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
         truth |= {"clocks_Hz": [c.clock.rate_Hz for c in holds.cells], "holds": int(t1.size), "hold_s": hold_s}
         rows = holds.t.size
     elif session == "therapy":
-        rows = _therapy(robot, output, truth, adc, minutes=minutes, release_every=release_every, release_s=release_s,
+        rec = _therapy(robot, output, truth, adc, minutes=minutes, release_every=release_every, release_s=release_s,
                         stiffness=stiffness, tremor_N=tremor_N, drift=drift, reach=reach, peak_speed=peak_speed,
                         rate=rate, noise=noise, encoder_bits=encoder_bits, seed=seed, rig=rig, offsets=offsets)  # fmt: skip
+        rows = rec.t.size
     elif session == "static":
         t1, t2, fx, fy, counts, _ = calibration_session(robot, seed=seed + 1, noise=noise, offsets=offsets)
         with numeric_table_writer(output, STATIC_COLUMNS) as write:
@@ -143,8 +189,12 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
                                    "ask for fewer reaches")  # fmt: skip
         if adc.ideal:
             motion = reaching(robot, reach=reach, reaches=reaches, peak_speed=peak_speed, dwell=dwell, sample_rate_hz=rate)
+            push = None
+            if session == "push":
+                push = tremor(motion.t, push_N, np.random.default_rng([seed, 1]), PUSH_BAND_HZ)
+                truth |= {"push_N": push_N, "push_band_Hz": list(PUSH_BAND_HZ)}
             rec = record(robot, motion, hand_stiffness=stiffness if session == "task" else 0.0, noise=noise,
-                         counts_per_rev=1 << encoder_bits, seed=seed, offsets=offsets)  # fmt: skip
+                         counts_per_rev=1 << encoder_bits, seed=seed, offsets=offsets, force=push)  # fmt: skip
             with numeric_table_writer(output, MOTION_COLUMNS) as write:
                 write({"t_s": rec.t, "theta1_deg": np.degrees(rec.theta[:, 0]), "theta2_deg": np.degrees(rec.theta[:, 1]),
                        "load1": rec.loads[:, 0], "load2": rec.loads[:, 1], "true_fx_N": rec.force[:, 0],
@@ -166,12 +216,18 @@ def simulate_motion_command(robot_path, session, reach, reaches, peak_speed, dwe
                   "counts_per_newton_of_shear": rec.gain, "sample_rate_Hz": rate, "encoder_bits": encoder_bits,
                   "peak_hand_acceleration_mps2": float(np.max(np.linalg.norm(_hand_acceleration(robot, motion), axis=1)))}  # fmt: skip
         rows = rec.t.size
+    if sensor is not None:
+        with numeric_table_writer(reference, REFERENCE_SENSOR_COLUMNS) as write:
+            write(simulate_reference(rec.t, rec.motion.q[:, 0], rec.force, sensor, seed=seed + 2))
+        truth |= {"reference": {"file": str(reference), "rate_Hz": sensor.rate_Hz, "noise_N": sensor.noise_N,
+                                "mount_deg": ref_mount, "clock_offset_s": sensor.clock_offset_s,
+                                "offsets_N": list(sensor.offsets_N), "on": sensor.on}}  # fmt: skip
     write_json(sidecar, truth)
     console.print(f"wrote {rows:,} rows of the {session} session to {output} (the truth in {sidecar})", highlight=False)
 
 
 def _therapy(robot, output, truth, adc, *, minutes, release_every, release_s, stiffness, tremor_N, drift, reach,
-             peak_speed, rate, noise, encoder_bits, seed, rig, offsets) -> int:  # fmt: skip
+             peak_speed, rate, noise, encoder_bits, seed, rig, offsets):  # fmt: skip
     from dataclasses import asdict
 
     from ..drift import Drift, TemperatureProfile
@@ -195,7 +251,7 @@ def _therapy(robot, output, truth, adc, *, minutes, release_every, release_s, st
     truth |= {"drift": asdict(model), "temperature": asdict(profile), "minutes": minutes,
               "release_every_s": release_every, "release_s": release_s, "tremor_N": tremor_N, "sample_rate_Hz": rate,
               "drift_counts_final": s.drift_counts[-1].tolist(), "drift_counts_max": np.abs(s.drift_counts).max(0).tolist()}  # fmt: skip
-    return int(r.t.size)
+    return r
 
 
 def _plant_rate(control_rate: float) -> float:

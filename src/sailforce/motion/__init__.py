@@ -26,5 +26,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
         "MINJERK_PEAK_ACCELERATION", "MINJERK_PEAK_SPEED", "TARGET_STEP", "JointMotion", "MotionRecording",
         "counts_per_newton", "minimum_jerk", "reaching", "record",
     ),
-    "session": ("TREMOR_BAND_HZ", "TherapySession", "release_mask", "therapy_session", "tremor"),
+    "session": ("PUSH_BAND_HZ", "TREMOR_BAND_HZ", "TherapySession", "release_mask", "therapy_session", "tremor"),
 })

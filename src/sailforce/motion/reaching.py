@@ -125,15 +125,18 @@ class MotionRecording:
 
 
 def record(robot: Robot, motion: JointMotion, *, hand_stiffness: float = 0.0, noise: NoiseModel = NoiseModel(),
-           counts_per_rev: int = 1 << 16, seed: int = 0, offsets=None) -> MotionRecording:  # fmt: skip
+           counts_per_rev: int = 1 << 16, seed: int = 0, offsets=None, force=None) -> MotionRecording:  # fmt: skip
     """Cell readings and encoder angles along ``motion``.
 
     The hand pulls toward the current reach's end point with
-    ``hand_stiffness`` [N/m] (0: free motion, nobody holding the handle).
+    ``hand_stiffness`` [N/m] (0: free motion, nobody holding the handle),
+    unless its ``force`` ``(n, 2)`` [N] is given.
     """
     rng = np.random.default_rng(seed)
-    x = np.column_stack(forward(robot.arm, motion.q[:, 0], motion.q[:, 1]))
-    force = hand_stiffness * (motion.target - x)
+    if force is None:
+        x = np.column_stack(forward(robot.arm, motion.q[:, 0], motion.q[:, 1]))
+        force = hand_stiffness * (motion.target - x)
+    force = np.asarray(force, float)
     loads, offsets, gain = cell_counts(robot, motion, force, offsets, rng, noise)
     rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
     loads = loads + rng.normal(0.0, noise.noise_fraction * rated, loads.shape)

@@ -48,15 +48,20 @@ def release_mask(t, release_every_s: float, release_s: float) -> np.ndarray:
     return np.mod(t, release_every_s) >= release_every_s - release_s
 
 
-def tremor(t, rms_N: float, rng: np.random.Generator) -> np.ndarray:
-    """``(n, 2)`` band-limited noise [N] of ``rms_N`` per axis in :data:`TREMOR_BAND_HZ`."""
+#: A person pushing the handle about, slowly and in every direction, for a reference-sensor calibration [Hz].
+PUSH_BAND_HZ = (0.1, 2.0)
+
+
+def tremor(t, rms_N: float, rng: np.random.Generator, band_Hz: tuple[float, float] = TREMOR_BAND_HZ) -> np.ndarray:
+    """``(n, 2)`` band-limited noise [N] of ``rms_N`` per axis in ``band_Hz`` (a 2nd-order Butterworth band-pass,
+    zero-phase)."""
     n = np.asarray(t).size
     if rms_N <= 0 or n < 32:
         return np.zeros((n, 2))
     rate = 1.0 / float(t[1] - t[0])
     from scipy.signal import butter, sosfiltfilt  # here: scipy.signal takes over a second to import
 
-    sos = butter(2, [TREMOR_BAND_HZ[0], min(TREMOR_BAND_HZ[1], 0.45 * rate)], btype="bandpass", fs=rate, output="sos")
+    sos = butter(2, [band_Hz[0], min(band_Hz[1], 0.45 * rate)], btype="bandpass", fs=rate, output="sos")
     shaped = sosfiltfilt(sos, rng.normal(size=(n, 2)), axis=0)
     return rms_N * shaped / np.sqrt(np.mean(shaped**2, axis=0))
 

@@ -1,0 +1,160 @@
+"""A recording against a reference F/T sensor: its hand force at every robot sample, a calibration from it.
+
+The recipe (:func:`reference_rows`, then :func:`reference_calibration_run`):
+
+1. the robot's recording (``t_s, theta1_deg, theta2_deg, load1, load2``, a
+   reading at every tick) and the sensor's (:func:`sailforce.reference.read_reference`);
+2. the sensor's clock against the robot's (:func:`sailforce.reference.align_clocks`);
+   only the robot's samples the sensor covers are kept;
+3. the rows at rest: joint rates and accelerations (the differentiator of
+   ``sail estimate``) under :data:`REST_RATE` and :data:`REST_ACCEL`;
+4. the sensor's mount and offsets from the rows at rest
+   (:func:`sailforce.reference.fit_frame`), and so the hand force in the base
+   frame at every kept sample;
+5. the static map from the rows at rest, as from weights over pulleys
+   (:func:`sailforce.workflows.calibration_run`), at most
+   :data:`STATIC_ROWS` of them, evenly spread;
+6. the dynamic term from every kept sample with a known motion: with the
+   hand's force known, ``loads - c - M(theta) F`` are the loads a free
+   motion would give, and :func:`sailforce.fit.fit_dynamic_term` fits them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..fit.dynamic import DynamicFit, fit_dynamic_term, prior_term
+from ..kernel import torque_entries
+from ..motion.differentiate import Differentiator, derivatives
+from ..reference.align import MAX_CLOCK_OFFSET_S, ClockAlignment, align_clocks
+from ..reference.frame import SensorFrame, fit_frame, refine_clock
+from ..reference.sensor import ReferenceRecording, read_reference
+from ..robot import Robot
+from ._calibrate import FREE_MOTION_COLUMNS, CalibrationRun, Readings, _columns, calibration_run
+
+#: A sample is at rest when both joints turn slower than this [rad/s]...
+REST_RATE = 0.01
+#: ...and accelerate less than this [rad/s^2]: an inertial shear of about 0.01 N on the default arm.
+REST_ACCEL = 0.05
+
+#: The model's clock refinement searches this many samples (the grid's or the sensor's, the longer) either side of
+#: the correlation's offset.
+CLOCK_SPAN_SAMPLES = 3
+
+#: The static fit takes at most this many rows at rest, evenly spread (at 1 kHz neighbours add nothing new).
+STATIC_ROWS = 2000
+#: The frame fit likewise.
+FRAME_ROWS = 4000
+
+
+@dataclass(frozen=True)
+class ReferenceRows:
+    """A robot recording with the reference's hand force beside it: the samples the sensor covers."""
+
+    t: np.ndarray  #: ``(n,)`` the robot's time [s]
+    theta: np.ndarray  #: ``(n, 2)`` [rad]
+    loads: np.ndarray  #: ``(n, 2)`` raw
+    force: np.ndarray  #: ``(n, 2)`` the hand force in the base frame [N], from the sensor
+    rest: np.ndarray  #: ``(n,)`` at rest (recipe step 3)
+    alignment: ClockAlignment
+    frame: SensorFrame
+    dropped: int  #: the robot's samples outside the sensor's recording
+    sha256: str  #: the robot recording's
+
+
+def _evenly(mask: np.ndarray, most: int) -> np.ndarray:
+    index = np.flatnonzero(mask)
+    return index if index.size <= most else index[np.linspace(0, index.size - 1, most).round().astype(int)]
+
+
+def reference_rows(data: Readings, reference: str | Path | ReferenceRecording, *, robot: Robot, on: str = "link",
+                   max_offset_s: float = MAX_CLOCK_OFFSET_S, differentiator: Differentiator = Differentiator()
+                   ) -> ReferenceRows:  # fmt: skip
+    """Recipe steps 1-4 (module docstring); ``on`` says where the sensor sits (:data:`sailforce.reference.sensor.MOUNTS`)."""
+    if not robot.adc.ideal:
+        raise InputError(f"the reference calibration reads a recording with a reading at every tick; the robot file's "
+                         f"[adc] is {robot.adc.model}, whose multi-rate recordings it does not read yet")  # fmt: skip
+    values, sha256 = _columns(data, FREE_MOTION_COLUMNS, "The robot's recording")
+    ref = reference if isinstance(reference, ReferenceRecording) else read_reference(reference)
+    t = values["t_s"]
+    theta = np.radians(np.column_stack([values["theta1_deg"], values["theta2_deg"]]))
+    loads = np.column_stack([values["load1"], values["load2"]])
+    alignment = align_clocks(t, loads, ref, theta1=theta[:, 0], on=on, max_offset_s=max_offset_s)
+    at = t + alignment.offset_s
+    covered = (at >= ref.t[0]) & (at <= ref.t[-1])
+    if covered.sum() < 2:
+        raise InputError("the reference sensor's recording covers none of the robot's")
+    t, theta, loads, at = t[covered], theta[covered], loads[covered], at[covered]
+    f_sensor = np.column_stack([np.interp(at, ref.t, ref.force[:, k]) for k in range(2)])
+    qd, qdd = derivatives(t, theta, differentiator)
+    rest = np.all((np.abs(qd) < REST_RATE) & (np.abs(qdd) < REST_ACCEL), axis=1)
+    pick = _evenly(rest, FRAME_ROWS)
+    frame = fit_frame(robot.arm, theta[pick, 0], theta[pick, 1], loads[pick], f_sensor[pick], on=on)
+    # the model sharpens the correlation's offset (refine_clock), and the frame is fitted again at it
+    span = CLOCK_SPAN_SAMPLES * max(alignment.step_s, 1.0 / ref.rate_Hz)
+    refined = refine_clock(robot.arm, frame, t[pick], theta[pick], loads[pick], ref, alignment.offset_s, span)
+    alignment = replace(alignment, offset_s=refined, coarse_offset_s=alignment.offset_s)
+    f_sensor = np.column_stack([np.interp(t + refined, ref.t, ref.force[:, k]) for k in range(2)])
+    frame = fit_frame(robot.arm, theta[pick, 0], theta[pick, 1], loads[pick], f_sensor[pick], on=on)
+    force = frame.to_base(theta[:, 0], f_sensor)
+    return ReferenceRows(t, theta, loads, force, rest, alignment, frame, int((~covered).sum()), sha256)
+
+
+@dataclass(frozen=True)
+class ReferenceCalibrationRun:
+    """What :func:`reference_calibration_run` made: the calibration run, and how the reference was registered."""
+
+    run: CalibrationRun
+    rows: ReferenceRows
+    static_rows: int  #: rows at rest the static fit took
+    dynamic_fit: DynamicFit | None = None
+
+
+def reference_calibration_run(data: Readings, reference: str | Path | ReferenceRecording, *, robot: Robot,
+                              model: str = "auto", free: tuple[str, ...] | None = None, transduction: str | None = None,
+                              capacity: tuple[float, float] | None = None, load_unit: str = "raw",
+                              dynamics: str = "fit", on: str = "link", max_offset_s: float = MAX_CLOCK_OFFSET_S,
+                              progress: Callable[[int, int], None] | None = None) -> ReferenceCalibrationRun:  # fmt: skip
+    """A calibration from a recording against a reference sensor (module docstring).
+
+    ``dynamics``: ``"fit"`` identifies the dynamic term from the same
+    recording, ``"prior"`` stores the robot file's, ``"none"`` none.  The
+    other arguments are :func:`~sailforce.workflows.calibration_run`'s.
+    """
+    if dynamics not in ("fit", "prior", "none"):
+        raise InputError(f"dynamics = {dynamics!r}: expected 'fit', 'prior' or 'none'")
+    rows = reference_rows(data, reference, robot=robot, on=on, max_offset_s=max_offset_s)
+    pick = _evenly(rows.rest, STATIC_ROWS)
+    static = {"theta1_deg": np.degrees(rows.theta[pick, 0]), "theta2_deg": np.degrees(rows.theta[pick, 1]),
+              "load1": rows.loads[pick, 0], "load2": rows.loads[pick, 1], "fx_N": rows.force[pick, 0],
+              "fy_N": rows.force[pick, 1]}  # fmt: skip
+    run = calibration_run(static, robot=robot, model=model, free=free, transduction=transduction, capacity=capacity,
+                          load_unit=load_unit, dynamics=None if dynamics == "fit" else dynamics, progress=progress)  # fmt: skip
+    a, f = rows.alignment, rows.frame
+    metrics = {"reference": {"clock_offset_s": a.offset_s, "alignment_score": a.score, "mount_deg": float(np.degrees(f.mount_rad)),
+                             "mount_se_deg": float(np.degrees(f.mount_se_rad)), "offsets_N": list(f.offsets_N),
+                             "on": f.on, "frame_rmse_raw": f.rmse_raw, "rows": int(rows.t.size),
+                             "rows_at_rest": int(rows.rest.sum()), "static_rows": int(pick.size)}}  # fmt: skip
+    cal = replace(run.calibration, data_sha256=rows.sha256, metrics={**run.calibration.metrics, **metrics})
+    fit = None
+    if dynamics == "fit":
+        m = cal.model.sensing_entries(rows.theta[:, 0] - rows.theta[:, 1], torque_entries(
+            cal.arm.l2, cal.arm.l3, *_trig(rows.theta)))  # fmt: skip
+        hand = np.column_stack([m[0] * rows.force[:, 0] + m[1] * rows.force[:, 1],
+                                m[2] * rows.force[:, 0] + m[3] * rows.force[:, 1]])  # fmt: skip
+        free_loads = rows.loads - hand  # what the cells would read with nobody holding the handle
+        fit = fit_dynamic_term(cal, rows.t, rows.theta[:, 0], rows.theta[:, 1], free_loads[:, 0], free_loads[:, 1])
+        cal = replace(cal, dynamics=fit.term, dynamics_source="reference",
+                      metrics={**cal.metrics, "dynamics_rmse_N": fit.rmse_N, "dynamics_cv_rmse_N": fit.cv_rmse_N,
+                               "dynamics_condition": fit.condition, "dynamics_samples": fit.samples})  # fmt: skip
+        run = replace(run, dynamic_fit=fit, prior=prior_term(robot))
+    return ReferenceCalibrationRun(replace(run, calibration=cal), rows, int(pick.size), fit)
+
+
+def _trig(theta: np.ndarray):
+    return np.sin(theta[:, 0]), np.cos(theta[:, 0]), np.sin(theta[:, 1]), np.cos(theta[:, 1])
