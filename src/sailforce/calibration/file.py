@@ -71,7 +71,7 @@ MAX_RAW = 1e15
 MAX_CONDITION = 1e10
 
 #: Where a dynamic term may come from.
-DYNAMICS_SOURCES = ("free-motion", "prior")
+DYNAMICS_SOURCES = ("free-motion", "reference", "prior")
 
 #: Poses at which the sensing map is checked, spread evenly over the calibrated delta range.
 CHECK_POSES = 9

@@ -65,6 +65,7 @@ _COMMAND_MODULES = {
     "solid-sweep": "solid_cmd",
     "stress": "stress_cmd",
     "tare": "calibrate_cmd",
+    "validate": "validate_cmd",
 }
 
 

@@ -209,3 +209,35 @@ def latency_option(func):
                         help="--lsl-out: how old each reading is when its line arrives (the device's own delay, USB "
                              "buffering), taken off its LSL stamp; a serial line's transmission time at --baud is "
                              "taken off as well.")(func)  # fmt: skip
+
+
+def _reference_offsets(ctx, param, value):
+    if value is None:
+        return None
+    try:
+        numbers = [float(v) for v in value.split(",")]
+    except ValueError:
+        numbers = []
+    if len(numbers) != 2 or not all(math.isfinite(v) for v in numbers):
+        raise click.BadParameter(f"expected two numbers FX,FY in newtons, e.g. 0,0; got {value!r}")
+    return tuple(numbers)
+
+
+def reference_options(function):
+    """--reference-on, --reference-offsets-N and --max-clock-offset-s: how a reference sensor's recording is read."""
+    from ..reference.align import MAX_CLOCK_OFFSET_S
+    from ..reference.sensor import MOUNTS
+
+    for option in reversed((
+        click.option("--reference-on", "reference_on", type=click.Choice(MOUNTS), default="link", show_default=True,
+                     help="The reference sensor turns with the handle's link (theta1), or sits on the base."),
+        click.option("--reference-offsets-N", "--reference-offsets-n", "reference_offsets", default=None,
+                     metavar="FX,FY", callback=_reference_offsets,
+                     help="The sensor's in-plane offsets [N], fixed (0,0 for a sensor tared before the session). "
+                          "Default: fitted, with their standard errors reported."),
+        click.option("--max-clock-offset-s", "max_clock_offset", type=click.FloatRange(0.0, min_open=True),
+                     default=MAX_CLOCK_OFFSET_S, show_default=True,
+                     help="The largest clock offset searched between the two recordings [s]."),
+    )):  # fmt: skip
+        function = option(function)
+    return function

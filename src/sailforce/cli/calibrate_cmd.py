@@ -21,11 +21,9 @@ from ..io.files import check_output
 from ..io.rosbag import is_bag, read_bag
 from ..io.tables import read_clean
 from ..io.xdf import is_xdf, read_xdf
-from ..reference.align import MAX_CLOCK_OFFSET_S
-from ..reference.sensor import MOUNTS
 from ..workflows import calibration_run, reference_calibration_run
 from . import cli
-from ._options import bag_topic_options, file_only, load_robot, readings_parquet, resolve_reading, robot_option
+from ._options import bag_topic_options, file_only, load_robot, readings_parquet, reference_options, resolve_reading, robot_option
 from ._progress import progress_bar
 
 
@@ -72,11 +70,7 @@ def _parse_capacity(ctx, param, value):
               metavar="REF.csv", help="A six-axis F/T sensor's recording at the handle (t_s, fx, fy, ... in its own "
               "frame, on its own clock): the hand force at every sample of DATA, which then needs only t_s, "
               "theta1_deg, theta2_deg, load1, load2 (docs/guide/reference.md).")
-@click.option("--reference-on", "reference_on", type=click.Choice(MOUNTS), default="link", show_default=True,
-              help="--reference: the sensor turns with the handle's link (theta1), or sits on the base.")
-@click.option("--max-clock-offset-s", "max_clock_offset", type=click.FloatRange(0.0, min_open=True),
-              default=MAX_CLOCK_OFFSET_S, show_default=True,
-              help="--reference: the largest clock offset searched between the two recordings [s].")
+@reference_options
 @click.option("--stream", "xdf_stream", default=None, metavar="NAME",
               help="DATA.xdf (a LabRecorder file): the stream of readings and reference forces, its channels labelled "
                    "theta1_deg, theta2_deg, load1, load2, fx_N, fy_N; t_s is pyxdf's LSL time.")
@@ -85,7 +79,7 @@ def _parse_capacity(ctx, param, value):
               help="DATA.mcap: the reference force, a geometry_msgs/msg/WrenchStamped in the base frame [N], paired "
                    "with the joint state and loads of the same stamp.")
 def calibrate_command(data, robot_path, output, kind, free, transduction, quiet, capacity, load_unit, free_motion, adc_name,
-                      dynamics, reference, reference_on, max_clock_offset, xdf_stream, joint_topic, load_topic,
+                      dynamics, reference, reference_on, reference_offsets, max_clock_offset, xdf_stream, joint_topic, load_topic,
                       force_topic):  # fmt: skip
     """Fit offsets and the sensing map from DATA.csv (or .parquet) with reference forces.
 
@@ -124,7 +118,7 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
         return _calibrate_against_reference(data, reference, robot, output, kind=kind, free=free_keys,
                                             transduction=transduction, capacity=capacity, load_unit=load_unit,
                                             dynamics=dynamics or "fit", on=reference_on, max_offset=max_clock_offset,
-                                            quiet=quiet)  # fmt: skip
+                                            offsets=reference_offsets, quiet=quiet)  # fmt: skip
     if free_motion is not None and dynamics is not None:
         raise click.UsageError("--dynamics chooses a dynamic term without --free-motion; give one or the other")
     console = Console()
@@ -182,7 +176,7 @@ def calibrate_command(data, robot_path, output, kind, free, transduction, quiet,
 
 
 def _calibrate_against_reference(data, reference, robot, output, *, kind, free, transduction, capacity, load_unit,
-                                 dynamics, on, max_offset, quiet) -> None:  # fmt: skip
+                                 dynamics, on, max_offset, offsets, quiet) -> None:  # fmt: skip
     console = Console()
     if kind in ("physics", "auto"):
         transduction = resolve_reading(robot, transduction, DEFAULT_TRANSDUCTION, console)
@@ -191,12 +185,12 @@ def _calibrate_against_reference(data, reference, robot, output, *, kind, free, 
         result = reference_calibration_run(data, reference, robot=robot, model=kind, free=free,
                                            transduction=transduction, capacity=capacity, load_unit=load_unit,
                                            dynamics=dynamics, on=on, max_offset_s=max_offset,
-                                           progress=lambda done, total: advance(1))  # fmt: skip
+                                           offsets_N=offsets, progress=lambda done, total: advance(1))  # fmt: skip
     run, rows = result.run, result.rows
     a, f = rows.alignment, rows.frame
     console.print(f"reference: its clock {a.offset_s * 1e3:+.3f} ms from the robot's (correlation {a.coarse_offset_s * 1e3:+.1f} "
                   f"ms, score {a.score:.3g} of 2, the next peak {a.second_score:.3g}); mount {np.degrees(f.mount_rad):.3f} "
-                  f"± {np.degrees(f.mount_se_rad):.3f}° on the {f.on}; offsets {f.offsets_N[0]:+.4g}, {f.offsets_N[1]:+.4g} N",
+                  f"± {np.degrees(f.mount_se_rad):.3f}° on the {f.on}; offsets {_offsets(f)}",
                   highlight=False)  # fmt: skip
     console.print(f"{rows.t.size:,} samples under the reference ({rows.dropped:,} outside it), {int(rows.rest.sum()):,} at "
                   f"rest; the static fit took {result.static_rows:,} of those", highlight=False)  # fmt: skip
@@ -212,6 +206,14 @@ def _calibrate_against_reference(data, reference, robot, output, *, kind, free, 
                   f"{report.cv_rmse_N:.4g} N")  # fmt: skip
     for note in run.notes:
         console.print(f"[yellow]note:[/yellow] {note}", highlight=False, soft_wrap=True)
+
+
+def _offsets(frame) -> str:
+    """The reference's offsets for people: with their standard errors when fitted."""
+    b, se = frame.offsets_N, frame.offsets_se_N
+    if not frame.offsets_fitted:
+        return f"{b[0]:+.4g}, {b[1]:+.4g} N (given)"
+    return f"{b[0]:+.4f} ± {se[0]:.4f}, {b[1]:+.4f} ± {se[1]:.4f} N (fitted)"
 
 
 def _print_physics(console: Console, physics) -> None:

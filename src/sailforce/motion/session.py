@@ -48,6 +48,9 @@ def release_mask(t, release_every_s: float, release_s: float) -> np.ndarray:
     return np.mod(t, release_every_s) >= release_every_s - release_s
 
 
+#: Band-limited noise is drawn this many periods of the band's low edge longer at each end (:func:`tremor`).
+SETTLING_PERIODS = 3.0
+
 #: A person pushing the handle about, slowly and in every direction, for a reference-sensor calibration [Hz].
 PUSH_BAND_HZ = (0.1, 2.0)
 
@@ -62,7 +65,10 @@ def tremor(t, rms_N: float, rng: np.random.Generator, band_Hz: tuple[float, floa
     from scipy.signal import butter, sosfiltfilt  # here: scipy.signal takes over a second to import
 
     sos = butter(2, [band_Hz[0], min(band_Hz[1], 0.45 * rate)], btype="bandpass", fs=rate, output="sos")
-    shaped = sosfiltfilt(sos, rng.normal(size=(n, 2)), axis=0)
+    # the filter settles over a few periods of its low edge: noise drawn that much longer at both ends, then cut
+    # off, leaves no start-up transient in the signal (which, unpadded, held most of a 0.1 Hz band's power)
+    lead = int(np.ceil(SETTLING_PERIODS * rate / band_Hz[0]))
+    shaped = sosfiltfilt(sos, rng.normal(size=(n + 2 * lead, 2)), axis=0)[lead : lead + n]
     return rms_N * shaped / np.sqrt(np.mean(shaped**2, axis=0))
 
 

@@ -54,6 +54,7 @@ class SensorFrame:
     rmse_raw: float  #: the readings' residual
     rows: int
     on: str
+    offsets_fitted: bool = True  #: False: the offsets were given (a tared sensor), their errors 0
 
     def to_base(self, theta1, f_sensor) -> np.ndarray:
         """The hand force in the base frame ``(n, 2)`` [N] from the sensor's ``(n, 2)`` at ``theta1`` [rad]."""
@@ -122,9 +123,16 @@ def _scan_start(S, theta1, f_sensor, loads, on) -> np.ndarray:
     return np.array([best_mount, *b, *c, *g])
 
 
-def fit_frame(arm: Links, theta1, theta2, loads, f_sensor, *, on: str = "link") -> SensorFrame:
+def fit_frame(arm: Links, theta1, theta2, loads, f_sensor, *, on: str = "link", offsets_N=None) -> SensorFrame:
     """The sensor's frame from rows at rest: angles [rad], raw ``loads`` ``(n, 2)``, the sensor's forces ``(n, 2)``
-    at the same instants (module docstring)."""
+    at the same instants (module docstring).
+
+    ``offsets_N`` fixes the sensor's offsets instead (``(0, 0)`` for a sensor
+    tared before the session).  Fitted, they are the frame's least certain
+    part: on the link, cell 1 sees them as a constant, like its own offset
+    (``S_1 R(theta1)`` does not change with the pose), so only cell 2 over
+    the Δ range separates them; their standard errors say how well.
+    """
     from scipy.optimize import least_squares
 
     theta1, theta2 = np.asarray(theta1, float), np.asarray(theta2, float)
@@ -134,20 +142,28 @@ def fit_frame(arm: Links, theta1, theta2, loads, f_sensor, *, on: str = "link") 
                          f"{MIN_FRAME_ROWS}): hold the arm still at several poses while pushing the handle")  # fmt: skip
     S = shear_map(arm, theta1, theta2)
     start = _scan_start(S, theta1, f_sensor, loads, on)
+    free = np.arange(7)
+    if offsets_N is not None:
+        start[1:3] = np.asarray(offsets_N, float)
+        free = np.array([0, 3, 4, 5, 6])
     scale = np.array([1.0, 1.0, 1.0, *np.maximum(np.abs(start[3:5]), 1.0), *np.maximum(np.abs(start[5:7]), 1e-9)])
+    full = start.copy()
 
-    def residual(p):
-        return (_predicted(p, S, theta1, f_sensor, on) - loads).ravel()
+    def residual(x):
+        full[free] = x
+        return (_predicted(full, S, theta1, f_sensor, on) - loads).ravel()
 
-    fit = least_squares(residual, start, x_scale=scale, method="lm")
-    if fit.x[5] < 0 and fit.x[6] < 0:  # the same fit with the force turned half a turn: keep positive gains
-        fit.x[0] += np.pi
-        fit.x[5:7] *= -1
+    fit = least_squares(residual, start[free], x_scale=scale[free], method="lm")
+    p = start.copy()
+    p[free] = fit.x
+    if p[5] < 0 and p[6] < 0:  # the same fit with the force turned half a turn: keep positive gains
+        p[0] += np.pi
+        p[5:7] *= -1
     dof = max(fit.fun.size - fit.x.size, 1)
     rss = float(np.sum(fit.fun**2))
-    cov = np.linalg.pinv(fit.jac.T @ fit.jac) * rss / dof
-    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    mount = float(np.angle(np.exp(1j * fit.x[0])))
-    return SensorFrame(mount, float(se[0]), (float(fit.x[1]), float(fit.x[2])), (float(se[1]), float(se[2])),
-                       (float(fit.x[3]), float(fit.x[4])), (float(fit.x[5]), float(fit.x[6])),
-                       float(np.sqrt(rss / fit.fun.size)), int(theta1.size), on)  # fmt: skip
+    se = np.zeros(7)
+    se[free] = np.sqrt(np.maximum(np.diag(np.linalg.pinv(fit.jac.T @ fit.jac) * rss / dof), 0.0))
+    mount = float(np.angle(np.exp(1j * p[0])))
+    return SensorFrame(mount, float(se[0]), (float(p[1]), float(p[2])), (float(se[1]), float(se[2])),
+                       (float(p[3]), float(p[4])), (float(p[5]), float(p[6])), float(np.sqrt(rss / fit.fun.size)),
+                       int(theta1.size), on, offsets_N is None)  # fmt: skip

@@ -2,6 +2,7 @@
 
 - :func:`calibrate` (``sail calibrate``): a :class:`~sailforce.calibration.Calibration` from readings;
 - :func:`reference_calibration_run` (``sail calibrate --reference``): the same against a reference F/T sensor;
+- :func:`validation` (``sail validate``): a calibration's force against a reference sensor's;
 - :func:`identify_robot` (``sail identify``): the robot's physical parameters fitted to a target;
 - :func:`reproduce` (``sail reproduce``): the seed's study, its model's families, its solid check;
 - :func:`check_solid` (``sail solid``): the solid against the frame at one pose.
@@ -12,7 +13,14 @@ Each command parses its options, calls one of these, and prints or writes what i
 
 from ._calibrate import CalibrationRun, calibrate, calibration_run, file_sha256
 from ._identify import IdentifyRun, identify_robot, readings_target, table4_target
-from ._reference import ReferenceCalibrationRun, ReferenceRows, reference_calibration_run, reference_rows
+from ._reference import (
+    ReferenceCalibrationRun,
+    ReferenceRows,
+    Validation,
+    reference_calibration_run,
+    reference_rows,
+    validation,
+)
 from ._reproduce import Reproduction, SolidStudy, reproduce, solid_pass
 from ._solid import SolidCheck, check_solid
 
@@ -24,6 +32,7 @@ __all__ = [
     "Reproduction",
     "SolidCheck",
     "SolidStudy",
+    "Validation",
     "calibrate",
     "calibration_run",
     "check_solid",
@@ -35,4 +44,5 @@ __all__ = [
     "reproduce",
     "solid_pass",
     "table4_target",
+    "validation",
 ]
