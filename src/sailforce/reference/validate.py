@@ -78,7 +78,10 @@ class Binned:
 def by_bins(estimate, reference, keys, width) -> Binned:
     """:class:`Binned` over bins of ``width`` in each column of ``keys`` ``(n, k)`` (the low edges label them);
     bins with fewer than :data:`MIN_BIN_SAMPLES` samples are left out."""
-    keys = np.asarray(keys, float).reshape(np.shape(estimate)[0], -1)
+    keys = np.asarray(keys, float)
+    if keys.shape[0] != np.shape(estimate)[0]:
+        raise InputError(f"by_bins: {keys.shape[0]} keys for {np.shape(estimate)[0]} samples; give one per sample")
+    keys = keys.reshape(keys.shape[0], -1)
     index = np.floor(keys / width).astype(int)
     labels, inverse = np.unique(index, axis=0, return_inverse=True)
     edges, found = [], []

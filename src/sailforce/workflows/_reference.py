@@ -51,8 +51,13 @@ REST_RATE = 0.01
 REST_ACCEL = 0.05
 
 #: The model's clock refinement searches this many samples (the grid's or the sensor's, the longer) either side of
-#: the correlation's offset.
+#: the correlation's offset, and at least this long [s]: a slow push's broad correlation peak can miss by several
+#: milliseconds (8 ms measured on a short session), while the model's residual stays unimodal over a quarter period
+#: of the push's fastest band (2 Hz: 125 ms).
 CLOCK_SPAN_SAMPLES = 3
+CLOCK_SPAN_S = 0.03
+#: Refinements of the clock, each followed by a frame fit.
+CLOCK_PASSES = 2
 
 #: The static fit takes at most this many rows at rest, evenly spread (at 1 kHz neighbours add nothing new).
 STATIC_ROWS = 2000
@@ -104,12 +109,15 @@ def reference_rows(data: Readings, reference: str | Path | ReferenceRecording, *
     rest = np.all((np.abs(qd) < REST_RATE) & (np.abs(qdd) < REST_ACCEL), axis=1)
     pick = _evenly(rest, FRAME_ROWS)
     frame = fit_frame(robot.arm, theta[pick, 0], theta[pick, 1], loads[pick], f_sensor[pick], on=on, offsets_N=offsets_N)
-    # the model sharpens the correlation's offset (refine_clock), and the frame is fitted again at it
-    span = CLOCK_SPAN_SAMPLES * max(alignment.step_s, 1.0 / ref.rate_Hz)
-    refined = refine_clock(robot.arm, frame, t[pick], theta[pick], loads[pick], ref, alignment.offset_s, span)
+    # the model sharpens the correlation's offset (refine_clock), and the frame is fitted again at it: twice, the
+    # second pass with the better frame
+    span = max(CLOCK_SPAN_S, CLOCK_SPAN_SAMPLES * max(alignment.step_s, 1.0 / ref.rate_Hz))
+    refined = alignment.offset_s
+    for _ in range(CLOCK_PASSES):
+        refined = refine_clock(robot.arm, frame, t[pick], theta[pick], loads[pick], ref, refined, span)
+        f_sensor = np.column_stack([np.interp(t + refined, ref.t, ref.force[:, k]) for k in range(2)])
+        frame = fit_frame(robot.arm, theta[pick, 0], theta[pick, 1], loads[pick], f_sensor[pick], on=on, offsets_N=offsets_N)
     alignment = replace(alignment, offset_s=refined, coarse_offset_s=alignment.offset_s)
-    f_sensor = np.column_stack([np.interp(t + refined, ref.t, ref.force[:, k]) for k in range(2)])
-    frame = fit_frame(robot.arm, theta[pick, 0], theta[pick, 1], loads[pick], f_sensor[pick], on=on, offsets_N=offsets_N)
     force = frame.to_base(theta[:, 0], f_sensor)
     return ReferenceRows(t, theta, loads, force, rest, alignment, frame, int((~covered).sum()), sha256)
 
