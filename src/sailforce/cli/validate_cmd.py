@@ -97,7 +97,7 @@ def _print(console: Console, v: Validation, output: Path) -> None:
     console.print(f"reference: clock {a.offset_s * 1e3:+.3f} ms, mount {np.degrees(f.mount_rad):.3f} ± "
                   f"{np.degrees(f.mount_se_rad):.3f}° on the {f.on}, offsets {_offsets(f)}; "
                   f"CAL {'with' if v.dynamics else 'without'} a dynamic term", highlight=False)  # fmt: skip
-    table = Table(title=f"SAIL against the reference [mN]; limits of agreement: bias ± {LIMITS_SD:g} SD")
+    table = Table(title=f"SAIL against the reference, mN; limits of agreement: bias ± {LIMITS_SD:g} SD")
     for head in ("", "samples", "RMS", "95 %", "bias fx", "bias fy", "± fx", "± fy"):
         table.add_column(head, justify="left" if not head else "right", no_wrap=True)
     parts: list[tuple[str, Agreement | None]] = [("all ok", v.overall), ("at rest", v.at_rest), ("moving", v.moving),
