@@ -211,16 +211,21 @@ def latency_option(func):
                              "taken off as well.")(func)  # fmt: skip
 
 
-def _reference_offsets(ctx, param, value):
+def number_pair(value: str | None, *, positive: bool, expected: str) -> tuple[float, float] | None:
+    """Two finite numbers ``A,B`` from an option (positive ones, if ``positive``), or a clear error naming ``expected``."""
     if value is None:
         return None
     try:
         numbers = [float(v) for v in value.split(",")]
     except ValueError:
         numbers = []
-    if len(numbers) != 2 or not all(math.isfinite(v) for v in numbers):
-        raise click.BadParameter(f"expected two numbers FX,FY in newtons, e.g. 0,0; got {value!r}")
-    return tuple(numbers)
+    if len(numbers) != 2 or not all(math.isfinite(v) and (v > 0 or not positive) for v in numbers):
+        raise click.BadParameter(f"expected {expected}, got {value!r}")
+    return numbers[0], numbers[1]
+
+
+def _reference_offsets(ctx, param, value):
+    return number_pair(value, positive=False, expected="two numbers FX,FY in newtons, e.g. 0,0")
 
 
 def reference_options(function):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from contextlib import ExitStack
 from pathlib import Path
 
@@ -23,20 +22,21 @@ from ..io.tables import read_clean
 from ..io.xdf import is_xdf, read_xdf
 from ..workflows import calibration_run, reference_calibration_run
 from . import cli
-from ._options import bag_topic_options, file_only, load_robot, readings_parquet, reference_options, resolve_reading, robot_option
+from ._options import (
+    bag_topic_options,
+    file_only,
+    load_robot,
+    number_pair,
+    readings_parquet,
+    reference_options,
+    resolve_reading,
+    robot_option,
+)
 from ._progress import progress_bar
 
 
 def _parse_capacity(ctx, param, value):
-    if value is None:
-        return None
-    try:
-        numbers = [float(v) for v in value.split(",")]
-    except ValueError:
-        numbers = []
-    if len(numbers) != 2 or not all(math.isfinite(v) and v > 0 for v in numbers):
-        raise click.BadParameter(f"expected two positive numbers RAW1,RAW2, got {value!r}")
-    return tuple(numbers)
+    return number_pair(value, positive=True, expected="two positive numbers RAW1,RAW2")
 
 
 @cli.command("calibrate")
