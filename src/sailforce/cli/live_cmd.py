@@ -22,7 +22,12 @@ MIN_TOKEN_CHARS = 16
 
 
 @cli.command("live")
-@click.option("--calibration", "cal_path", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Calibration JSON.")
+@click.option("--calibration", "cal_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Calibration JSON (required, unless --calibrate runs on the robot file's nominal one).")
+@click.option("--calibrate", "plan_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              metavar="PLAN.csv", help="Walk through a calibration plan (`sail plan-calibration`'s plan.csv): each hold's "
+              "pose and weight on the page, recorded once settled and still; at the end the recording, the fitted "
+              "calibration and the achieved accuracy map are written to --record-dir.")
 @click.argument("source", metavar="IN.csv", required=False, type=click.Path(dir_okay=False, allow_dash=True, path_type=Path))
 @click.option("--replay", is_flag=True, help="Replay IN.csv at the pace of its t_s column (or of --sample-rate-Hz).")
 @click.option("--speed", cls=PrimaryOption, type=FINITE, default=1.0, show_default=True, help="Replay speed (2: twice as fast).")
@@ -60,9 +65,9 @@ MIN_TOKEN_CHARS = 16
 @click.option("-v", "--verbose", is_flag=True,
               help="Also log pages connecting and commands carried out (refused and malformed messages always are).")
 @lowpass_options
-def live_command(cal_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in, lsl_out, latency_ms,
-                 mcap_out, foxglove_port, host, port, allow_hosts, token, record_dir, record_format, verbose, lowpass_hz, sample_rate_hz,
-                 lowpass_order):  # fmt: skip
+def live_command(cal_path, plan_path, source, replay, speed, serial_port, baud, columns, simulate, robot_path, rig, lsl_in,
+                 lsl_out, latency_ms, mcap_out, foxglove_port, host, port, allow_hosts, token, record_dir, record_format,
+                 verbose, lowpass_hz, sample_rate_hz, lowpass_order):  # fmt: skip
     """Serve a live page of the arm and its force at http://127.0.0.1:8050/.
 
     \b
@@ -86,6 +91,15 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
     (127.0.0.1, localhost); over any other it asks for the token that this
     command prints.  Requests for a Host name the server does not answer to
     are refused (DNS rebinding).  Ctrl-C stops, closing any recording.
+
+    \b
+    --calibrate PLAN.csv walks through a plan of `sail plan-calibration`:
+      a tare with no weight on, then for each hold its pose (drawn on the
+      arm), its weight and direction; each hold is recorded once the ADC has
+      settled and the readings are still; "redo" and "skip" are offered.  At
+      the end it writes the recording, the fitted calibration and the
+      achieved accuracy map (beside the planned one) to --record-dir.
+      Without --calibration it starts from the robot file's nominal map.
     """
     kernel.prefer_backend("numpy")
     console = Console(stderr=True)
@@ -100,11 +114,29 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
         raise click.UsageError("--replay plays back a file: give IN.csv")
     if columns is not None and serial_port is None:
         raise click.UsageError("--columns names a serial stream's columns: use it with --serial")
-    if robot_path is not None and not simulate:
-        raise click.UsageError("--robot sets up the simulated arm: use it with --simulate")
+    if robot_path is not None and not simulate and plan_path is None:
+        raise click.UsageError("--robot sets up the simulated arm or a guided calibration: use it with --simulate or --calibrate")
+    if cal_path is None and plan_path is None:
+        raise click.UsageError("give --calibration CAL.json (or --calibrate PLAN.csv, which can start from the robot file)")
     if not speed > 0:
         raise click.BadParameter(f"{speed:g}: a replay speed is a positive number (1 is real time)", param_hint="--speed")
-    cal = Calibration.load(cal_path)
+    guide_plan, robot = None, None
+    if plan_path is not None:
+        from ..live.guide import read_plan
+        from ._options import load_robot
+
+        guide_plan, robot = read_plan(plan_path), load_robot(robot_path)
+    if cal_path is not None:
+        cal = Calibration.load(cal_path)
+    else:
+        from ..workflows import nominal_calibration
+
+        cal = nominal_calibration(robot)
+        console.print("no --calibration: the page estimates with the robot file's nominal map; the guide's first step "
+                      "tares it", highlight=False)  # fmt: skip
+    if guide_plan is not None and cal.multirate:
+        raise click.UsageError("--calibrate reads a synchronous stream (both loads on every row); this calibration "
+                               "has a real ADC's multi-rate estimate: give one with the ideal ADC")  # fmt: skip
     lowpass = make_lowpass(lowpass_hz, sample_rate_hz, lowpass_order, rate_alone=True)
     dt = None if sample_rate_hz is None else 1.0 / sample_rate_hz
     logging.basicConfig(format="sail live: %(message)s", level=logging.INFO if verbose else logging.WARNING)
@@ -124,8 +156,13 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
                       "another machine; give it only to those who may change the offsets", highlight=False)  # fmt: skip
 
     with ExitStack() as stack:
+        guide = None
+        if guide_plan is not None:
+            from ..live.guide import Guide
+
+            guide = Guide(guide_plan, robot, record_dir, lambda samples: pipeline.tare(samples))
         blocks, label = _source(stack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, sample_rate_hz,
-                                cal.arm, columns, console)  # fmt: skip
+                                cal.arm, columns, console, guide)  # fmt: skip
         bag = None
         if mcap_out is not None:
             from ..io.files import check_output
@@ -136,13 +173,15 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
             bag = stack.enter_context(BagWriter(mcap_out))
         pipeline = LivePipeline(cal, blocks, source=label, lowpass=lowpass, dt=dt,
                                 also=("t_s", "omega1_dps", "omega2_dps") if bag is not None
-                                else ("t_s",) if lsl_out or foxglove_port is not None else ())  # fmt: skip
+                                else ("t_s",) if lsl_out or foxglove_port is not None or guide is not None else ())  # fmt: skip
         if bag is not None:
             pipeline.listen(bag_listener(bag))
             stack.callback(lambda: console.print(f"wrote {mcap_out}: {bag.rows:,} rows", highlight=False))
             stack.callback(pipeline.stop)  # the rows stop before the bag closes (callbacks run in reverse)
+        if guide is not None:
+            pipeline.listen(guide)
         server = LiveServer(pipeline, record_dir=record_dir, record_format=record_format, calibration_path=cal_path, hosts=hosts,
-                            **({"token": token} if token else {}))  # fmt: skip
+                            guide=guide, **({"token": token} if token else {}))  # fmt: skip
         if lsl_out is not None:
             from ..live.lsl import Outlet
 
@@ -181,10 +220,15 @@ def live_command(cal_path, source, replay, speed, serial_port, baud, columns, si
                               f"(kept {kept})", highlight=False)  # fmt: skip
             for path in server.saved:
                 console.print(f"saved calibration {path}", highlight=False)
+            if guide is not None and guide.result is not None:
+                r = guide.result
+                console.print(f"guided calibration: {r.holds} holds ({r.skipped} skipped), fit {1e3 * r.fit_rmse_N:.1f} mN "
+                              f"RMS; wrote {record_dir / r.recording.name}, {record_dir / r.calibration.name} and "
+                              f"{record_dir / r.achieved_csv.name}", highlight=False)  # fmt: skip
 
 
 def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, rig, lsl_in, speed, rate_hz, cal_arm, columns,
-            console):  # fmt: skip
+            console, guide=None):  # fmt: skip
     """The chosen source's blocks, and a label for people."""
     from ..live import sources
 
@@ -193,6 +237,8 @@ def _source(stack: ExitStack, source, serial_port, baud, simulate, robot_path, r
 
         robot = load_robot(robot_path)
         check_same_arm(cal_arm, robot.arm, robot_path)
+        if guide is not None:
+            return sources.guided_arm(robot, guide.want, rig=rig, speed=speed), f"simulated rig {rig}, guided"
         return sources.simulated_arm(robot, rig=rig, speed=speed), f"simulated arm (rig {rig})"
     if serial_port is not None:
         from ._progress import skipped_note

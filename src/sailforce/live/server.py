@@ -12,8 +12,9 @@ Routes:
   The client may send commands (``{"type": "command", "token": ..., "name":
   ..., ...}``); anything else, or anything malformed, is logged and ignored;
 - ``GET /api/state``: the newest row and counts, as JSON, for scripts;
-- ``POST /api/tare``, ``/api/save-calibration``, ``/api/record``: the
-  commands, for scripts (``X-Sail-Token`` header).
+- ``POST /api/tare``, ``/api/save-calibration``, ``/api/record``, and with a
+  guided calibration (:mod:`sailforce.live.guide`) ``/api/guide-skip`` and
+  ``/api/guide-redo``: the commands, for scripts (``X-Sail-Token`` header).
 
 Every request must name, in its ``Host`` header, a host the server
 answers to (:class:`HostPolicy`): loopback names and addresses, and on a
@@ -56,6 +57,7 @@ from aiohttp import WSMsgType, web
 from ..calibration.tare import Tare
 from ..errors import CommandError, InputError, SailError, ToolError
 from ..estimate.estimator import STATUS_NAMES
+from .guide import Guide
 from .pipeline import LivePipeline
 from .recorder import Recorder, fresh_file
 from .state import HISTORY_S, LiveState
@@ -77,7 +79,7 @@ MAX_TARE_SAMPLES = 1_000_000
 #: The HTTP header that carries the token of a script's command.
 TOKEN_HEADER = "X-Sail-Token"
 
-COMMANDS = ("tare", "cancel-tare", "save-calibration", "record")
+COMMANDS = ("tare", "cancel-tare", "save-calibration", "record", "guide-skip", "guide-redo")
 
 #: The largest WebSocket message or HTTP body the server reads [bytes]: a command is under 200.
 MAX_MESSAGE_BYTES = 16 * 1024
@@ -196,6 +198,7 @@ class LiveServer:
     calibration_path: Path | None = None
     token: str = field(default_factory=lambda: secrets.token_urlsafe(24))
     hosts: HostPolicy = field(default_factory=lambda: HostPolicy("127.0.0.1"))
+    guide: Guide | None = None  #: a guided calibration (``sail live --calibrate``), a listener of the pipeline
 
     def __post_init__(self) -> None:
         self.state = LiveState()
@@ -384,7 +387,8 @@ class LiveServer:
                 "capacity": list(cal.capacity), "offsets": list(cal.offsets), "load_unit": cal.load_unit,
                 "statuses": list(STATUS_NAMES), "history_s": HISTORY_S, "source": self.pipeline.source,
                 "calibration": self.calibration_path.name if self.calibration_path else None,
-                "dynamics": cal.dynamics is not None, "record_format": self.record_format}  # fmt: skip
+                "dynamics": cal.dynamics is not None, "record_format": self.record_format,
+                "guide": None if self.guide is None else {"holds": len(self.guide.plan), "plan": self.guide.plan.source}}  # fmt: skip
 
     def _update(self, since: int) -> tuple[dict, int]:
         cal = self.pipeline.calibration
@@ -399,6 +403,8 @@ class LiveServer:
                    "recording_failed": failed.info() if failed is not None else None,
                    "ended": self.pipeline.ended.is_set(), "error": None if error is None else str(error),
                    "sent": time.time()}  # fmt: skip
+        if self.guide is not None:
+            message["guide"] = self.guide.info()
         return message, last
 
     # -- commands -------------------------------------------------------------------------------
@@ -432,6 +438,10 @@ class LiveServer:
                 result = {"cancelled": self.pipeline.cancel_tare()}
             elif name == "save-calibration":
                 result = self._save_calibration()
+            elif name in ("guide-skip", "guide-redo"):
+                if self.guide is None:
+                    raise CommandError("no guided calibration runs: start `sail live` with --calibrate PLAN.csv")
+                result = self.guide.skip() if name == "guide-skip" else self.guide.redo()
             else:
                 result = self._record(args)
         except (CommandError, SailError, OSError) as exc:

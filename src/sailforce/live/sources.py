@@ -161,6 +161,75 @@ def simulated_arm(robot: Robot, *, rig: int = 1, speed: float = 1.0, noise: Nois
     return _paced(lines(), speed)
 
 
+#: The simulated rig's joints turn at most this fast toward a guided hold's pose [rad/s].
+GUIDED_SPEED = math.radians(90.0)
+#: The simulated person hangs the weight this long after the arm reached the pose [s] ...
+GUIDED_HANG_S = 0.3
+#: ... and it takes this long to take up its load [s].
+GUIDED_RAMP_S = 0.2
+
+
+def guided_arm(robot: Robot, want: Callable[[], tuple], *, rig: int = 1, speed: float = 1.0,
+               noise: NoiseModel = NoiseModel()) -> Iterator[Block]:  # fmt: skip
+    """The simulated rig following a guided calibration (``sail live --simulate --calibrate``), endlessly, at
+    ``speed`` times real time: :func:`guided_lines` paced."""
+    return _paced(guided_lines(robot, want, rig=rig, noise=noise), speed)
+
+
+def guided_lines(robot: Robot, want: Callable[[], tuple], *, rig: int = 1,
+                 noise: NoiseModel = NoiseModel()) -> Iterator[tuple[bytes, float]]:  # fmt: skip
+    """The simulated rig's lines following a guided calibration, each with its time [s], endlessly.
+
+    ``want()`` gives the guide's phase, hold, pose [rad] and force [N]
+    (:meth:`sailforce.live.guide.Guide.want`).  The arm turns toward the
+    hold's pose at :data:`GUIDED_SPEED`; once there, the simulated person
+    hangs the weight after :data:`GUIDED_HANG_S` (taking up its load over
+    :data:`GUIDED_RAMP_S`), and takes it off when the guide moves on.  During
+    the tare nothing moves and nothing is hung.  The cells read through the
+    frame model with the synthetic noise model and rig ``rig``'s offsets, at
+    :data:`SIMULATED_RATE_HZ`: what a lab's rig would send.
+    """
+    from ..fem.model import build_model
+    from ..fem.response import simulate_model
+    from ..synthetic import HX711_COUNTS_PER_MV_V
+
+    offsets = session_offsets(robot, noise, rig)
+    rated = robot.loadcell.rated_output_mV_V * HX711_COUNTS_PER_MV_V
+    model = build_model(robot)
+    rng = np.random.default_rng(rig)
+    dt = 1.0 / SIMULATED_RATE_HZ
+    units: dict[tuple[float, float], np.ndarray] = {}
+
+    def lines() -> Iterator[tuple[bytes, float]]:
+        yield (",".join(SIMULATED_COLUMNS) + "\n").encode(), 0.0
+        _, _, t1, t2, _, _ = want()
+        theta = np.array([t1 - math.radians(20.0), t2])  # the arm starts away from the first pose
+        hold, arrived = None, math.inf
+        for step in range(sys.maxsize):
+            t = step * dt
+            phase, k, t1, t2, fx, fy = want()
+            target = np.array([t1, t2])
+            if k != hold or phase in ("tare", "taring", "fitting", "done", "failed"):
+                hold, arrived = k, math.inf  # a new hold (or none): the weight comes off
+            if phase not in ("tare", "taring"):
+                gap = target - theta
+                theta = np.where(np.abs(gap) <= GUIDED_SPEED * dt, target, theta + np.sign(gap) * GUIDED_SPEED * dt)
+            if np.all(theta == target) and arrived == math.inf and phase in ("move", "hang", "settle", "record"):
+                arrived = t
+            load = float(np.clip((t - arrived - GUIDED_HANG_S) / GUIDED_RAMP_S, 0.0, 1.0))
+            force = np.array([fx, fy]) * load
+            key = (float(theta[0]), float(theta[1]))
+            if load > 0 and key not in units:
+                units[key] = simulate_model(model, np.array([key[0]]), np.array([key[1]])).signal("bridge")[0]
+            signal = units[key] @ force if load > 0 else np.zeros(2)
+            counts = np.round(offsets + signal * HX711_COUNTS_PER_MV_V + rng.normal(0.0, noise.noise_fraction * rated, 2))
+            line = (f"{t:.4f},{math.degrees(theta[0]):.6f},{math.degrees(theta[1]):.6f},{counts[0]:.0f},{counts[1]:.0f},"
+                    f"{force[0]:.4f},{force[1]:.4f}\n")  # fmt: skip
+            yield line.encode(), t
+
+    return lines()
+
+
 #: Bytes a serial stream is looked at before it is taken as text or frames.
 DETECT_BYTES = 512
 

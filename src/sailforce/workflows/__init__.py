@@ -2,6 +2,7 @@
 
 - :func:`calibrate` (``sail calibrate``): a :class:`~sailforce.calibration.Calibration` from readings;
 - :func:`reference_calibration_run` (``sail calibrate --reference``): the same against a reference F/T sensor;
+- :func:`nominal_calibration`: a calibration from the robot file alone, before there is a fitted one;
 - :func:`validation` (``sail validate``): a calibration's force against a reference sensor's;
 - :func:`identify_robot` (``sail identify``): the robot's physical parameters fitted to a target;
 - :func:`reproduce` (``sail reproduce``): the seed's study, its model's families, its solid check;
@@ -11,7 +12,7 @@
 Each command parses its options, calls one of these, and prints or writes what it returns.
 """
 
-from ._calibrate import CalibrationRun, calibrate, calibration_run, file_sha256
+from ._calibrate import CalibrationRun, calibrate, calibration_run, file_sha256, nominal_calibration
 from ._identify import IdentifyRun, identify_robot, readings_target, table4_target
 from ._reference import (
     ReferenceCalibrationRun,
@@ -38,6 +39,7 @@ __all__ = [
     "check_solid",
     "file_sha256",
     "identify_robot",
+    "nominal_calibration",
     "readings_target",
     "reference_calibration_run",
     "reference_rows",

@@ -231,6 +231,31 @@ def calibrate(readings: Readings, *, robot: Robot, model: str = "auto", free: tu
                            adc=adc).calibration  # fmt: skip
 
 
+#: The deltas a nominal calibration's map covers [deg]: the whole workspace the plans' maps span.
+NOMINAL_DELTA_RANGE_DEG = (15.0, 165.0)
+
+
+def nominal_calibration(robot: Robot, *, transduction: str | None = None) -> Calibration:
+    """A calibration from the robot file alone: its frame model's map in HX711 counts, zero offsets, no fit.
+
+    What a guided calibration estimates with before there is one (``sail live --calibrate`` without
+    ``--calibration``): a tare sets the offsets, and the force it shows is then as right as the robot file
+    (the cells' gains within their datasheet tolerance).  The map is the physics model's at unit gains
+    (:func:`sailforce.fit.physics.stored_map`, the counts of :data:`sailforce.synthetic.HX711_COUNTS_PER_MV_V`
+    per mV/V), over :data:`NOMINAL_DELTA_RANGE_DEG`.
+    """
+    from ..fit.physics import stored_map
+    from ..synthetic import HX711_COUNTS_PER_MV_V
+
+    transduction = transduction or robot.loadcell.reading or DEFAULT_TRANSDUCTION
+    delta_range = (float(np.radians(NOMINAL_DELTA_RANGE_DEG[0])), float(np.radians(NOMINAL_DELTA_RANGE_DEG[1])))
+    model, error = stored_map(robot, np.full(2, HX711_COUNTS_PER_MV_V), delta_range, transduction)
+    capacity = equivalent_capacity(model, robot.arm, robot.loadcell.capacity_N, delta_range)
+    return Calibration(arm=robot.arm, model=model, offsets=(0.0, 0.0), capacity=(float(capacity[0]), float(capacity[1])),
+                       delta_range=delta_range, metrics={"model_selection": "nominal", "map_error": error},
+                       adc=robot.adc)  # fmt: skip
+
+
 def _metrics(report: FitReport, selection: str) -> dict:
     metrics = {"fit_rmse_N": report.fit_rmse_N, "cv_rmse_N": report.cv_rmse_N, "cv_rmse_by_model_N": report.cv_rmse_by_kind,
                "n_samples": report.n_samples, "n_deltas": report.n_deltas, "model_selection": selection,

@@ -15,6 +15,7 @@ let dirty = false;
 let recording = null;
 let reportedFailure = null;
 let socket = null;
+let guide = null;          // the guided calibration's state (sail live --calibrate), or null
 // Latency of each shown row: the page's clock when it drew the row, less the row's reading time [ms].
 window.sailLatency = [];
 const MAX_LATENCIES = 100000;
@@ -49,6 +50,7 @@ function onHello(message) {
   $("source").textContent = `${message.source}` + (message.calibration ? ` · ${message.calibration}` : "") +
     (message.dynamics ? " · dynamic term on" : "");
   showOffsets(message.offsets);
+  $("guide-panel").hidden = !message.guide;
   dirty = true;
 }
 
@@ -93,7 +95,63 @@ function onUpdate(message) {
   $("record").classList.toggle("active", !!recording);
   setText("recording", recording ? `recording ${recording.file}: ${recording.rows.toLocaleString()} rows, ${recording.seconds.toFixed(0)} s` : "");
   if (message.error) showMessage(`the stream stopped: ${message.error}`, true);
+  if (message.guide) showGuide(message.guide);
   dirty = true;
+}
+
+// The guided calibration: the hold to make, the phase it is in, and at the end the maps side by side.
+function showGuide(g) {
+  guide = g;
+  $("guide-panel").hidden = false;
+  setText("guide-count", `hold ${g.hold} of ${g.holds} · ${g.recorded} recorded` + (g.skipped ? ` · ${g.skipped} skipped` : ""));
+  setText("guide-phase", g.phase);
+  $("guide-phase").className = "badge " + g.phase;
+  setText("guide-message", g.message);
+  const t = g.target;
+  setText("guide-theta1", t.theta1_deg.toFixed(1));
+  setText("guide-theta2", t.theta2_deg.toFixed(1));
+  setText("guide-mass", `${t.mass_kg}`);
+  setText("guide-direction", t.direction_deg.toFixed(0));
+  setText("guide-force", Math.hypot(t.fx_N, t.fy_N).toFixed(2));
+  $("guide-progress").style.width = `${100 * (g.progress || 0)}%`;
+  const ended = ["fitting", "done"].includes(g.phase);
+  $("guide-skip").disabled = ended || g.phase === "failed";
+  $("guide-redo").disabled = ended || g.recorded === 0;
+  if (g.result) {
+    const r = g.result;
+    setText("guide-result", `calibrated from ${r.holds} holds: fit ${(1e3 * r.fit_rmse_N).toFixed(1)} mN RMS, ` +
+      `cross-validated ${(1e3 * r.cv_rmse_N).toFixed(1)} mN; wrote ${r.recording}, ${r.calibration}, ${r.achieved}`);
+    $("guide-map").hidden = false;
+    drawGuideMap(r.map);
+  } else {
+    setText("guide-result", g.error || "");
+  }
+}
+
+function drawGuideMap(map) {
+  const canvas = $("guide-map"), g = canvas.getContext("2d");
+  const w = canvas.width, h = canvas.height, left = 56, right = 110, top = 12, bottom = 28;
+  g.clearRect(0, 0, w, h);
+  const curves = [[map.planned_N, "#6b7585", "planned"], [map.achieved_N, "#1b8a4b", "achieved"]].filter((c) => c[0]);
+  let big = 0;
+  for (const [values] of curves) for (const v of values) if (v > big) big = v;
+  big = big > 0 ? big * 1e3 * 1.1 : 1;
+  const d0 = map.delta_deg[0], d1 = map.delta_deg[map.delta_deg.length - 1];
+  const px = (d) => left + (w - left - right) * (d - d0) / (d1 - d0);
+  const py = (mN) => top + (h - top - bottom) * (1 - mN / big);
+  g.strokeStyle = "#e3e7ee"; g.fillStyle = "#6b7585"; g.font = "12px system-ui"; g.lineWidth = 1;
+  for (const f of [0, 0.5, 1]) {
+    g.beginPath(); g.moveTo(left, py(f * big)); g.lineTo(w - right, py(f * big)); g.stroke();
+    g.fillText(`${(f * big).toFixed(0)} mN`, 4, py(f * big) + 4);
+  }
+  for (let d = 30; d <= 150; d += 30) g.fillText(`${d}°`, px(d) - 10, h - 8);
+  curves.forEach(([values, colour, label], row) => {
+    g.strokeStyle = colour; g.lineWidth = 2; g.beginPath();
+    values.forEach((v, i) => { const x = px(map.delta_deg[i]), y = py(v * 1e3); if (i) g.lineTo(x, y); else g.moveTo(x, y); });
+    g.stroke();
+    g.fillStyle = colour; g.fillText(label, w - right + 10, top + 16 + 18 * row);
+  });
+  g.fillStyle = "#6b7585"; g.fillText("worst force error against Δ", left, top + 2);
 }
 
 function showCell(i, fraction, saturated) {
@@ -129,6 +187,10 @@ function onResult(message) {
     showMessage(`saved ${message.file}`, false);
   } else if (message.name === "record") {
     if (message.stopped) showMessage(`recorded ${message.stopped}`, false);
+  } else if (message.name === "guide-skip") {
+    showMessage(message.skipped === "tare" ? "tare skipped" : `hold ${message.skipped} skipped`, false);
+  } else if (message.name === "guide-redo") {
+    showMessage(`redoing hold ${message.redo}`, false);
   }
 }
 
@@ -149,6 +211,8 @@ $("tare").onclick = () => {
 };
 $("save-calibration").onclick = () => command("save-calibration");
 $("record").onclick = () => command("record", { on: !recording });
+$("guide-skip").onclick = () => command("guide-skip");
+$("guide-redo").onclick = () => command("guide-redo");
 
 // -- drawing ----------------------------------------------------------------------------------
 function drawArm() {
@@ -162,6 +226,16 @@ function drawArm() {
   g.strokeStyle = "#e3e7ee"; g.lineWidth = 1;
   g.beginPath(); g.arc(w / 2, h / 2, reach * scale, 0, 2 * Math.PI); g.stroke();
   g.beginPath(); g.moveTo(0, h / 2); g.lineTo(w, h / 2); g.moveTo(w / 2, 0); g.lineTo(w / 2, h); g.stroke();
+  if (guide && !["done", "fitting"].includes(guide.phase)) {  // the hold's pose, and its weight's direction
+    const t = guide.target.joints;
+    g.setLineDash([6, 5]); g.strokeStyle = "#2e8b57"; g.lineWidth = 3;
+    for (const [a, b] of [[t.B, t.P1], [t.B, t.P2], [t.P1, t.P3], [t.P2, t.A]]) {
+      g.beginPath(); g.moveTo(x(a), y(a)); g.lineTo(x(b), y(b)); g.stroke();
+    }
+    g.setLineDash([]);
+    const r = 40, a = guide.target.direction_deg * Math.PI / 180;
+    arrow(g, x(t.A), y(t.A), x(t.A) + r * Math.cos(a), y(t.A) - r * Math.sin(a), "#2e8b57");
+  }
   if (!latest || !latest.joints) return;
   const j = latest.joints;
   const link = (a, b, colour, width) => {
