@@ -54,7 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from ..adc import ADC, adc_model
-from ..errors import InputError, SailError, TableError
+from ..errors import CommandError, InputError, SailError, TableError
 from ..io.files import write_json, write_numeric_table
 from ..io.tables import read_clean, table_names
 from ..kinematics import joint_positions
@@ -263,7 +263,7 @@ class Guide:
         """Go on without the current hold (or the tare)."""
         with self._lock:
             if self.phase in ("fitting", "done", "failed"):
-                raise SailError("the guided calibration has ended: there is nothing to skip")
+                raise CommandError("the guided calibration has ended: there is nothing to skip")
             if self.phase in ("tare", "taring"):
                 self._start_hold(0, "tare skipped: the offsets stay as they are")
                 return {"skipped": "tare"}
@@ -276,9 +276,9 @@ class Guide:
         """Make the last recorded hold again (its rows are dropped)."""
         with self._lock:
             if self.phase in ("fitting", "done"):
-                raise SailError("the guided calibration has ended: there is nothing to redo")
+                raise CommandError("the guided calibration has ended: there is nothing to redo")
             if not self.done:
-                raise SailError("no hold has been recorded yet: there is nothing to redo")
+                raise CommandError("no hold has been recorded yet: there is nothing to redo")
             last = self.done.pop()
             self.records.pop(last, None)
             self.error = None
