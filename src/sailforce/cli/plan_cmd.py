@@ -119,6 +119,16 @@ def _summary(plan: Plan, simulated: ErrorMap | None) -> dict:
     summary = {name: {"worst_inside_N": _finite(m.worst_within(low, high)), "worst_N": _finite(float(m.worst_N.max())),
                       "rms_N": _finite(float(np.sqrt(np.mean(m.rms_N**2))))}
                for name, m in maps.items()}  # fmt: skip
+    # what a lab sees at run time: each calibration's error with one conversion's noise, against the noise floor
+    summary["noise_floor"] = {"worst_inside_N": plan.floor.worst_within(low, high), "worst_N": float(plan.floor_N.max()),
+                              "rms_N": float(np.sqrt(np.mean(plan.floor_N**2)))}  # fmt: skip
+    for name, m in maps.items():
+        if not np.all(np.isfinite(m.worst_N)):
+            continue
+        seen = plan.seen(m)
+        summary[name] |= {"seen_worst_inside_N": seen.worst_within(low, high), "seen_worst_N": float(seen.worst_N.max()),
+                          "extrapolation": plan.extrapolation(m), "seen_extrapolation": plan.extrapolation(seen),
+                          "seen_over_floor": plan.over_floor(m)}  # fmt: skip
     return summary
 
 
@@ -133,9 +143,10 @@ def _write(output: Path, plan: Plan, simulated: ErrorMap | None) -> None:
     rows = np.column_stack([np.arange(1, len(h) + 1), np.degrees(h.theta1), np.degrees(h.theta2), h.fx, h.fy, h.mass_kg,
                             direction, plan.conversions, plan.hold_s, start])  # fmt: skip
     write_numeric_table(output / "plan.csv", PLAN_COLUMNS, rows, csv_format="%.10g")
-    head = ["delta_deg", "plan_worst_N", "plan_rms_N", "seed_grid_worst_N", "uniform_grid_worst_N"]
+    head = ["delta_deg", "plan_worst_N", "plan_rms_N", "seed_grid_worst_N", "uniform_grid_worst_N", "noise_floor_N",
+            "plan_seen_worst_N"]  # fmt: skip
     table = [np.degrees(plan.predicted.delta), plan.predicted.worst_N, plan.predicted.rms_N, plan.seed_grid.worst_N,
-             plan.uniform.worst_N]  # fmt: skip
+             plan.uniform.worst_N, plan.floor_N, plan.seen(plan.predicted).worst_N]  # fmt: skip
     if simulated is not None:
         head += ["simulated_worst_N", "simulated_rms_N"]
         table += [simulated.worst_N, simulated.rms_N]
@@ -172,9 +183,13 @@ def _checklist(plan: Plan) -> str:
                      f"{plan.conversions[k]} | {plan.hold_s[k]:.2f} |")
         previous = pose
     low, high = np.degrees(plan.rig.delta_range)
+    seen = plan.seen(plan.predicted)
     lines += ["", f"Predicted force error at {plan.predicted.force_N:g} N, worst direction: "
               f"{1e3 * plan.predicted.worst_within(*plan.rig.delta_range):.1f} mN over Δ = {low:g}…{high:g}°, "
-              f"{1e3 * plan.predicted.worst_N.max():.1f} mN over Δ = 15…165°.", ""]  # fmt: skip
+              f"{1e3 * plan.predicted.worst_N.max():.1f} mN over Δ = 15…165°.",
+              f"With one conversion's noise at run time: {1e3 * seen.worst_within(*plan.rig.delta_range):.1f} mN and "
+              f"{1e3 * seen.worst_N.max():.1f} mN, at most {plan.over_floor(plan.predicted):.2f} times an exactly "
+              "calibrated arm's.", ""]  # fmt: skip
     return "\n".join(lines)
 
 
@@ -183,7 +198,7 @@ def _print(console: Console, plan: Plan, simulated: ErrorMap | None, output: Pat
         console.print(f"[yellow]note:[/yellow] {note}", highlight=False)
     low, high = np.degrees(plan.rig.delta_range)
     table = Table(title=f"predicted force error at {plan.predicted.force_N:g} N, worst direction [mN]")
-    for head in ("protocol", "holds", f"Δ {low:g}…{high:g}°", "Δ 15…165°"):
+    for head in ("protocol", "holds", f"Δ {low:g}…{high:g}°", "Δ 15…165°", "at run time, Δ 15…165°", "× floor"):
         table.add_column(head, justify="left" if head == "protocol" else "right")
     rows = [("the plan (I-optimal)", plan.budget, plan.predicted), ("the seed's grid", len(plan.seed_holds), plan.seed_grid),
             ("a uniform grid", len(plan.uniform_holds), plan.uniform)]  # fmt: skip
@@ -191,8 +206,15 @@ def _print(console: Console, plan: Plan, simulated: ErrorMap | None, output: Pat
         rows.append(("the plan, simulated calibrations", plan.budget, simulated))
     for name, n, m in rows:
         inside, worst = m.worst_within(*plan.rig.delta_range), float(m.worst_N.max())
-        table.add_row(name, str(n), *(f"{1e3 * v:.2f}" if math.isfinite(v) else "cannot determine the model" for v in (inside, worst)))
+        seen, over = float(plan.seen(m).worst_N.max()), plan.over_floor(m)
+        table.add_row(name, str(n), *(f"{1e3 * v:.2f}" if math.isfinite(v) else "cannot determine the model" for v in (inside, worst)),
+                      f"{1e3 * seen:.1f}" if math.isfinite(seen) else "", f"{over:.2f}" if math.isfinite(over) else "")  # fmt: skip
+    table.add_row("an exact calibration (the noise floor)", "∞", f"{1e3 * plan.floor.worst_within(*plan.rig.delta_range):.2f}",
+                  f"{1e3 * plan.floor_N.max():.2f}", f"{1e3 * plan.floor_N.max():.1f}", "1.00")  # fmt: skip
     console.print(table)
+    console.print(f"the first columns are the calibration's own error; 'at run time' adds one conversion's noise of the "
+                  f"{plan.adc.model}, and '× floor' is that against an exactly calibrated arm's, worst over Δ",
+                  highlight=False)  # fmt: skip
     console.print(f"the plan: {plan.budget} holds of {plan.conversions_per_hold} conversions of the {plan.adc.model}, "
                   f"made as {len(plan.holds)} distinct holds (a hold chosen k times is one hold k times as long), "
                   f"{plan.total_s / 60:.1f} min of holds; wrote {', '.join(str(output / n) for n in OUTPUTS)}",

@@ -11,6 +11,18 @@ and a force ``F`` estimated at a pose the error covariance
 at a pose is ``sqrt(trace(B Sigma B^T))`` [N], the RMS length of the error
 vector, for a force of :data:`DEFAULT_FORCE_N` in its worst direction.  It
 is the calibration's own error: the run-time reading noise comes on top.
+
+**The noise floor, and the error seen at run time.**  An oracle that knew
+the map exactly would still read each conversion's noise ``sigma_r``
+[counts, both cells, independent]: a force error of
+``sigma_r sqrt(trace(M^-1 M^-T))`` [N], the same for every force
+(:func:`noise_floor`).  A calibrated arm adds its calibration's error,
+independent of that noise, so the error seen at run time is the two in
+quadrature (:func:`seen_map`).  Beyond the calibrated deltas the
+calibration's error of a physics model grows about fivefold (the stiffnesses
+alone carry the map there, whatever holds inside the range are chosen:
+docs/guide/calibrate.md), and the seen error stays within a few per cent
+of the floor as long as the calibration's is well below it.
 The map depends on delta alone: the frame turns rigidly with theta2, and a
 direction that turns with it has the same error.
 
@@ -98,6 +110,22 @@ class ErrorMap:
 def map_deltas() -> np.ndarray:
     """The map's deltas [rad]."""
     return np.radians(np.linspace(*MAP_DELTA_RANGE_DEG, MAP_POINTS))
+
+
+def noise_floor(model: Linearised, sigma_counts: float) -> np.ndarray:
+    """The noise-floor oracle's force error at the map's deltas [N]: one reading noise ``sigma_counts`` [counts] on
+    each cell through the exact map, ``sigma sqrt(trace(M^-1 M^-T))`` (the RMS length of ``M^-1 n``, any force)."""
+    delta = map_deltas()
+    inverse = np.linalg.inv(model.sensing(delta, np.zeros_like(delta)))
+    return sigma_counts * np.sqrt(np.einsum("dij,dij->d", inverse, inverse))
+
+
+def seen_map(calibration: ErrorMap, floor_N: np.ndarray) -> ErrorMap:
+    """The force error seen at run time: a calibration's predicted error and the reading noise's floor
+    (:func:`noise_floor`), independent, in quadrature.  The floor is the same in every direction, so the worst
+    direction stays the calibration's."""
+    return ErrorMap(calibration.delta, np.hypot(calibration.worst_N, floor_N), np.hypot(calibration.rms_N, floor_N),
+                    calibration.force_N)  # fmt: skip
 
 
 def map_points(force_N: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -30,7 +30,7 @@ from ..loadcell import STANDARD_GRAVITY
 from ..motion.multirate import noise_counts
 from ..robot import Robot
 from ..synthetic import HX711_COUNTS_PER_MV_V, NoiseModel
-from .design import DEFAULT_FORCE_N, Candidates, ErrorMap, optimal_holds, predicted_map
+from .design import DEFAULT_FORCE_N, Candidates, ErrorMap, noise_floor, optimal_holds, predicted_map, seen_map
 from .linear import Linearised, linearise
 
 #: Settled conversions averaged in each hold.
@@ -94,7 +94,25 @@ class Plan:
     uniform: ErrorMap
     seed_holds: Candidates
     uniform_holds: Candidates
+    floor_N: np.ndarray  #: the noise-floor oracle at the map's deltas [N]: one run-time conversion's noise, exact map
     notes: tuple[str, ...] = field(default=())
+
+    def seen(self, calibration: ErrorMap) -> ErrorMap:
+        """``calibration``'s error as seen at run time: with one conversion's noise (:func:`~.design.seen_map`)."""
+        return seen_map(calibration, self.floor_N)
+
+    @property
+    def floor(self) -> ErrorMap:
+        """The noise-floor oracle as a map (the same error in every direction)."""
+        return ErrorMap(self.predicted.delta, self.floor_N, self.floor_N, self.predicted.force_N)
+
+    def extrapolation(self, calibration: ErrorMap) -> float:
+        """How much worse the worst error over the whole map is than over the planned deltas."""
+        return float(calibration.worst_N.max()) / calibration.worst_within(*self.rig.delta_range)
+
+    def over_floor(self, calibration: ErrorMap) -> float:
+        """The seen error against the noise-floor oracle, worst over the map's deltas."""
+        return float(np.max(self.seen(calibration).worst_N / self.floor_N))
 
     @property
     def total_s(self) -> float:
@@ -224,4 +242,5 @@ def plan_calibration(robot: Robot, model: str = "physics", *, holds: int = 24, f
             maps.append(ErrorMap(maps[0].delta, np.full(maps[0].delta.shape, np.inf), np.full(maps[0].delta.shape, np.inf), force_N))
     return Plan(Candidates(chosen.theta1, chosen.theta2, chosen.fx, chosen.fy, chosen.mass_kg, chosen.sigma),
                 np.array([hold_time(adc, int(c)) for c in counts]), counts, holds, conversions, adc, linear, rig,
-                maps[0], maps[1], maps[2], seed, uniform, tuple(notes))  # fmt: skip
+                maps[0], maps[1], maps[2], seed, uniform, noise_floor(linear, reading_noise(linear.robot, adc, 1)),
+                tuple(notes))  # fmt: skip
