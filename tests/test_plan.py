@@ -15,10 +15,10 @@ from sailforce import Robot
 from sailforce.adc import adc_model
 from sailforce.cli import cli
 from sailforce.errors import InputError
+from sailforce.motion.multirate import noise_counts
 from sailforce.plan import Rig, hold_time, plan_calibration
 from sailforce.plan.design import MAP_DIRECTIONS, map_deltas
 from sailforce.plan.verify import as_map, simulated_errors
-from sailforce.motion.multirate import noise_counts
 from sailforce.robot import Joint, Joints
 from sailforce.synthetic import NoiseModel, recording
 
