@@ -16,7 +16,7 @@ from sailforce.fem.frame import make_frame, reactions, solve
 from sailforce.fem.model import NODES, build_model, node_positions
 from sailforce.fem.response import member_stresses, simulate
 from sailforce.loadcell import LoadCell
-from sailforce.robot import Joints, Motors, Robot
+from sailforce.robot import Joint, Joints, Motors, Robot
 
 #: Closed-form beams are reproduced to rounding: a handful of flops on O(1)
 #: numbers conditioned by EI / (kappa G A L^2) ~ 1e-2 .. 1e2.
@@ -25,8 +25,8 @@ BEAM_RTOL = 1e-10
 #: The issue's bound for the pin-jointed arm against J^T F.
 RIGID_STATICS_RTOL = 1e-9
 
-#: The issue's bound for agreement with PyNite, on displacements and reactions.
-PYNITE_RTOL = 1e-6
+#: The bound for agreement with PyNite and OpenSees, on displacements, reactions and end forces.
+PYNITE_RTOL = OPENSEES_RTOL = 1e-9
 
 #: Batched and single-pose solves go through different LAPACK call shapes and
 #: round differently; cond(K) is ~1.2e7 for the default pin-jointed arm (axial
@@ -205,6 +205,78 @@ def test_agrees_with_pynite(joints, motors):
         R = reactions(model.frame, ours, model.loads)[0]
         ours_r = np.array([[R[dof[f"{b}.u"]], R[dof[f"{b}.v"]], R[dof[f"{b}.r"]]] for b in ("B1", "B2")])
         np.testing.assert_allclose(ours_r, theirs.reactions, rtol=PYNITE_RTOL, atol=PYNITE_RTOL * np.abs(ours_r).max())
+
+
+@pytest.mark.parametrize("shear", [False, True], ids=["euler-bernoulli", "timoshenko"])
+@pytest.mark.parametrize("robot", [Robot(), Robot().with_joints("bonded"),
+                                   Robot(joints=Joints("spring", 50.0, P1=Joint("spring", 80.0), P3=Joint("bonded")),
+                                         motors=Motors("gearbox", 5e3))], ids=["pin", "bonded", "springs-gearbox"])  # fmt: skip
+def test_agrees_with_opensees_moved_pose_by_pose(robot, shear):
+    """One OpenSees model (equalDOF pins, zeroLength springs, ElasticTimoshenkoBeam or elasticBeamColumn) moved
+    through poses by setNodeCoord + updateElementDomain, as the benchmark runs it: every node's displacement and
+    every member's end forces, and the cells' signals, agree with ours to 1e-9 at each pose."""
+    from sailforce.fem.opensees_check import OpenSeesArm, solve_poses
+
+    model = build_model(robot, shear_deformation=shear)
+    poses = np.radians([(75.0, 0.0), (120.0, 35.0), (20.0, -70.0), (160.0, 100.0)])
+    ours = solve(model.frame, poses, model.loads)
+    arm = OpenSeesArm(model)
+    dof = model.dof
+    try:
+        for k, (theta1, theta2) in enumerate(poses):
+            arm.move(theta1, theta2)
+            for case in range(2):
+                arm.step()
+                u, forces = arm.everything()
+                mine = np.array([[ours.displacements[k, dof[f"{n}.u"], case], ours.displacements[k, dof[f"{n}.v"], case]]
+                                 for n in NODES])  # fmt: skip
+                np.testing.assert_allclose(u[:, :2], mine, rtol=0, atol=OPENSEES_RTOL * np.abs(mine).max())
+                expected = ours.end_forces[k, :, :, case]
+                np.testing.assert_allclose(forces, expected, rtol=0, atol=OPENSEES_RTOL * np.abs(expected).max())
+        bridge, deflection = solve_poses(arm, poses[:, 0], poses[:, 1])
+    finally:
+        arm.ops.wipe()
+    response = simulate(robot, poses[:, 0], poses[:, 1], shear_deformation=shear)
+    for theirs, transduction in ((bridge, "bridge"), (deflection, "deflection")):
+        expected = response.signal(transduction)
+        np.testing.assert_allclose(theirs, expected, rtol=0, atol=OPENSEES_RTOL * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("shear", [False, True], ids=["euler-bernoulli", "timoshenko"])
+@pytest.mark.parametrize("robot", [Robot(), Robot().with_joints("bonded"), Robot().with_joints("spring"),
+                                   Robot(joints=Joints("spring", 0.01, P2=Joint("spring", 1e7)), motors=Motors("gearbox", 5e3))],
+                         ids=["pin", "bonded", "springs", "soft-and-stiff-springs-gearbox"])  # fmt: skip
+def test_the_compiled_solve_is_the_stacked_numpy_solve(robot, shear):
+    """The compiled back-end (profile Cholesky, one pose at a time) against the stacked LAPACK solve, over a
+    thousand poses: displacements and end forces within BACKENDS_RTOL of each load case's largest."""
+    from sailforce.fem import frame as fe
+    from sailforce.kernel import use_backend
+
+    model = build_model(robot, shear_deformation=shear)
+    rng = np.random.default_rng(3)
+    theta2 = rng.uniform(-np.pi, np.pi, 1000)
+    angles = np.stack([theta2 + rng.uniform(0.2, np.pi - 0.2, 1000), theta2], axis=-1)
+    assert fe._compiled(len(angles)) is None  # a thousand poses: not worth loading numba for
+    with use_backend("numpy"):
+        fe.prefer_compiled()
+        try:
+            reference = solve(model.frame, angles, model.loads)  # the kernel's numpy back-end overrides the wish
+            assert fe._compiled(len(angles)) is None
+        finally:
+            fe.prefer_compiled(False)
+    with use_backend("compiled"):
+        fe.prefer_compiled()
+        try:
+            assert fe._compiled(len(angles)) is not None
+            compiled = solve(model.frame, angles, model.loads)
+        finally:
+            fe.prefer_compiled(False)
+        assert fe._compiled(fe.COMPILED_MIN_POSES) is not None  # a large call takes it unasked
+    for name in ("displacements", "end_forces"):
+        a, b = getattr(compiled, name), getattr(reference, name)
+        scale = np.abs(b).max(axis=tuple(range(b.ndim - 1)))  # each load case's largest
+        assert np.all(np.abs(a - b) <= fe.BACKENDS_RTOL * scale), (name, np.max(np.abs(a - b) / scale))
+        assert np.all(np.isfinite(a))
 
 
 def test_stresses_of_a_loaded_arm():

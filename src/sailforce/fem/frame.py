@@ -16,11 +16,31 @@ sum for all poses done as one matrix product.  The solve is one stacked
 LAPACK call; recovery rotates translations elementwise.  Nothing loops in
 Python over the batch, except that very large batches are cut into chunks of
 :data:`CHUNK` configurations to bound memory.
+
+**Two back-ends**:
+
+- ``"compiled"`` (:mod:`sailforce.fem._compiled`): one configuration at a
+  time, K at its nonzeros only, in reverse Cuthill-McKee order, factorised by
+  a profile Cholesky and shared by the load cases; about 5 times the numpy
+  path's speed (``make bench``), once numba is loaded (about 0.45 s);
+- ``"numpy"``: the stacked solve above, the reference.
+
+A call solves on the compiled back-end when the force kernel's is compiled
+(:func:`sailforce.kernel.backend`: ``SAILFORCE_KERNEL``, default compiled
+when numba imports) and either the call has at least
+:data:`COMPILED_MIN_POSES` configurations or the process asked for it
+(:func:`prefer_compiled`: a design sweep's workers, which solve thousands of
+variants).  A command that solves a few thousand poses once does not wait
+for numba.
+
+They agree to :data:`BACKENDS_RTOL` of each load case's largest value
+(``tests/test_fem.py``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -32,6 +52,11 @@ from .elements import rotation_patterns, to_global, to_local
 CHUNK = 4096
 
 GROUND = -1  #: the second DOF of a spring anchored to the ground
+#: Configurations (poses x frames) from which one call pays for loading numba: 0.45 s at about 17 us saved a pose.
+COMPILED_MIN_POSES = 25_000
+#: The two back-ends' agreement, relative to each load case's largest displacement or end force: both are
+#: backward stable, and the frame's stiffnesses span about eight decades (a cell against a link's axial).
+BACKENDS_RTOL = 1e-9
 
 _MONOMIALS = 5  # c^2, cs, s^2, c, s per axis; the constant term is shared
 
@@ -64,6 +89,60 @@ class Frame:
     @property
     def n_elements(self) -> int:
         return self.element_dofs.shape[0]
+
+    @cached_property
+    def profile(self) -> Profile:
+        """The compiled solve's plan for this frame (:class:`Profile`), made on first use."""
+        return make_profile(self.basis, self.fixed)
+
+
+@dataclass(frozen=True)
+class Profile:
+    """K's structure for the compiled solve: its free DOFs in reverse Cuthill-McKee order (``free_dofs``, the
+    DOF number of each unknown), the lower triangle's nonzeros (``rows``, ``cols``) with their monomial
+    coefficients ``coef`` ``(nnz, 5 n_axes + 1)``, and each row's first column in the envelope (``first``)."""
+
+    order: np.ndarray
+    free_dofs: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    coef: np.ndarray
+    first: np.ndarray
+
+    @property
+    def envelope(self) -> int:
+        """Entries of L below the diagonal inside the envelope (the factor's size)."""
+        return int(np.sum(np.arange(self.first.size) - self.first))
+
+
+def make_profile(basis: np.ndarray, fixed: np.ndarray) -> Profile:
+    """The :class:`Profile` of a stiffness basis ``(M, n_free, n_free)`` over the DOFs not ``fixed``: the order
+    of the smaller envelope, the natural one or reverse Cuthill-McKee's (George and Liu 1981, Sec. 4.3).  The
+    order depends on the nonzero pattern alone, and is made once per pattern (a fit's robots share one)."""
+    pattern = np.any(basis != 0.0, axis=0)
+    order, rows, cols, first = _symbolic(pattern.tobytes(), pattern.shape[0])
+    coef = np.ascontiguousarray(basis[:, order][:, :, order][:, rows, cols].T)
+    free_dofs = np.flatnonzero(~fixed)[order].astype(np.int64)
+    return Profile(order, free_dofs, rows, cols, coef, first)
+
+
+@lru_cache(maxsize=64)
+def _symbolic(pattern_bytes: bytes, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The order, the lower triangle's nonzeros and the envelope of a nonzero pattern (``n`` x ``n`` booleans)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    pattern = np.frombuffer(pattern_bytes, dtype=bool).reshape(n, n)
+    best: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    for order in (np.arange(n), np.asarray(reverse_cuthill_mckee(csr_matrix(pattern), symmetric_mode=True), dtype=np.int64)):
+        lower = np.tril(pattern[np.ix_(order, order)])
+        first = np.argmax(lower, axis=1).astype(np.int64)  # the diagonal is always there: a free DOF has stiffness
+        if best is None or np.sum(np.arange(n) - first) < np.sum(np.arange(n) - best[1]):
+            best = (order, first, lower)
+    assert best is not None
+    order, first, lower = best
+    rows, cols = np.nonzero(lower)
+    return order, rows.astype(np.int64), cols.astype(np.int64), first
 
 
 @dataclass(frozen=True)
@@ -204,6 +283,9 @@ def solve(frame: Frame, angles, loads) -> FrameSolution:
     loads = np.asarray(loads, dtype=float)
     if loads.ndim != 2 or loads.shape[0] != frame.n_dofs:
         raise ShapeError(f"loads: expected shape ({frame.n_dofs}, L), got {loads.shape}")
+    compiled = _compiled(len(angles))
+    if compiled is not None:
+        return _solve_compiled(compiled, frame, angles, loads)
     parts = [_solve_chunk(frame, angles[s : s + CHUNK], loads) for s in range(0, len(angles), CHUNK)]
     if not parts:
         n_loads = loads.shape[1]
@@ -223,17 +305,17 @@ def same_topology(frames) -> bool:
 def solve_many(frames, angles, loads) -> list[FrameSolution]:
     """:func:`solve` for each of ``frames`` at the same ``angles`` and ``loads``, as one stacked solve.
 
-    Frames of the same topology (:func:`same_topology`: the robots of a fit's finite-difference
-    Jacobian) are assembled, solved and recovered together, in chunks of :data:`CHUNK` systems;
-    others are solved one by one.  Each frame's solution is :func:`solve`'s (one stacked LAPACK
-    call solves each system as it would alone).
+    On the numpy back-end, frames of the same topology (:func:`same_topology`: the robots of a fit's
+    finite-difference Jacobian) are assembled, solved and recovered together, in chunks of :data:`CHUNK`
+    systems; others, and every frame on the compiled back-end, are solved one by one.  Each frame's solution
+    is :func:`solve`'s (one stacked LAPACK call solves each system as it would alone).
     """
     frames = list(frames)
     if not frames:
         return []
     angles = np.asarray(angles, dtype=float)
     loads = np.asarray(loads, dtype=float)
-    if len(frames) == 1 or not same_topology(frames):
+    if len(frames) == 1 or not same_topology(frames) or _compiled(len(frames) * len(angles)) is not None:
         return [solve(frame, angles, loads) for frame in frames]
     first = frames[0]
     if angles.ndim != 2 or angles.shape[1] != first.n_axes:
@@ -255,6 +337,42 @@ def solve_many(frames, angles, loads) -> list[FrameSolution]:
         forces = local_k[:, None] @ to_local(np.cos(theta), np.sin(theta), u[:, :, first.element_dofs])  # (B, N, E, 6, L)
         out += [FrameSolution(u[b], forces[b], angles) for b in range(len(group))]
     return out
+
+
+_prefer_compiled = False
+
+
+def prefer_compiled(on: bool = True) -> None:
+    """Solve every call of this process on the compiled back-end, whatever its size (unless the force kernel's is
+    numpy): for a long workload of small calls, a sweep's variants or a fit's Jacobians."""
+    global _prefer_compiled
+    _prefer_compiled = bool(on)
+
+
+def _compiled(configurations: int):
+    """The compiled solve's module for a call of ``configurations``, or None (module docstring)."""
+    if configurations < COMPILED_MIN_POSES and not _prefer_compiled:
+        return None
+    from ..kernel import backend
+
+    if backend() != "compiled":
+        return None
+    from . import _compiled as module
+
+    return module
+
+
+def _solve_compiled(compiled, frame: Frame, angles: np.ndarray, loads: np.ndarray) -> FrameSolution:
+    plan = frame.profile
+    free_loads = np.ascontiguousarray(loads[plan.free_dofs])
+    n_loads = loads.shape[1]
+    displacements = np.empty((len(angles), frame.n_dofs, n_loads))
+    forces = np.empty((len(angles), frame.n_elements, 6, n_loads))
+    compiled.solve_frames(np.ascontiguousarray(angles), plan.rows, plan.cols, plan.coef, plan.first, free_loads,
+                          plan.free_dofs, frame.n_dofs, np.ascontiguousarray(frame.element_dofs, dtype=np.int64),
+                          np.ascontiguousarray(frame.element_axis, dtype=np.int64), np.ascontiguousarray(frame.local_k),
+                          displacements, forces)  # fmt: skip
+    return FrameSolution(displacements, forces, angles)
 
 
 def _solve_chunk(frame: Frame, angles: np.ndarray, loads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
