@@ -17,8 +17,11 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
+# the compiled kernels are compiled once here, into numba's cache beside their source (about 10 s), not by the first
+# test or command that needs them
 $(STAMP): $(PY) pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m sailforce.fem.modes
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -7,6 +7,7 @@ import os
 import signal
 import threading
 import time
+from dataclasses import replace
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -28,6 +29,7 @@ from sailforce.design.sweep import (
     variants,
 )
 from sailforce.distributed import ClusterError, run_tasks
+from sailforce.fem.frame import compiled_solves
 from sailforce.fem.model import build_model
 from sailforce.fem.modes import arm_frequencies, arm_modes
 from sailforce.io.robotkeys import with_keys
@@ -149,6 +151,32 @@ def test_subspace_frequencies_agree_with_the_dense_solver():
         model = build_model(with_keys(Robot(), keys))
         dense = arm_modes(model, theta1, theta2, 2).frequencies_Hz
         np.testing.assert_allclose(arm_frequencies(model, theta1, theta2, 2), dense, rtol=1e-8)
+        with compiled_solves():  # the compiled subspace iteration (profile Cholesky, Jacobi on the projection)
+            for count in (1, 2):
+                np.testing.assert_allclose(arm_frequencies(model, theta1, theta2, count), dense[:, :count], rtol=1e-8)
+
+
+def test_a_large_sweep_solves_compiled_and_a_small_one_does_not(monkeypatch):
+    """A sweep whose poses pay for loading numba (COMPILED_MIN_POSES) asks its tasks for the compiled solve; the
+    answers are the numpy path's to the eigensolver's rounding."""
+    import sailforce.distributed as distributed
+
+    seen = []
+
+    def record(fn, tasks, **options):  # the tasks as handed out, each answered as one that failed
+        seen.extend(tasks)
+        return [distributed.Outcome(error="not run") for _ in tasks]
+
+    monkeypatch.setattr(distributed, "run_tasks", record)
+    axis = parse_sweep("loadcells.position=0.4,0.6", Robot())
+    for n, compiled in ((10, False), (200, True)):
+        seen.clear()
+        run_sweep(Robot(), [axis], grid=GridSpec(n=n))
+        assert len(seen) == 2 and all(task.compiled is compiled for task in seen), (n, [t.compiled for t in seen])
+    task = Task(Robot().with_joints("bonded"), GridSpec(n=12))  # bonded: a phase need well above rounding
+    plain, fast = evaluate(task), evaluate(replace(task, compiled=True))
+    for key in ("resolution_N", "overload_N", "first_frequency_Hz", "phase_need_deg"):
+        assert fast[key] == pytest.approx(plain[key], rel=1e-8), key
 
 
 def test_cli_sweep_writes_the_table_figure_and_report(tmp_path):

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import RobotFileError, SailError
+from ..fem.frame import COMPILED_MIN_POSES, compiled_solves
 from ..fem.model import build_model
 from ..fem.modes import arm_frequencies
 from ..fem.response import simulate_model
@@ -200,6 +201,7 @@ class Task:
     grid: GridSpec = field(default_factory=GridSpec)
     safety_factor: float = DEFAULT_SAFETY_FACTOR
     peak_acceleration: float = DEFAULT_PEAK_ACCELERATION  #: of the reach a real ADC's error is measured in [m/s^2]
+    compiled: bool = False  #: solve on the compiled back-end (a sweep large enough to pay for loading numba)
 
 
 def evaluate(task: Task) -> dict[str, Any]:
@@ -207,11 +209,12 @@ def evaluate(task: Task) -> dict[str, Any]:
     robot, g = task.robot, task.grid
     grid = design_grid(robot, g.n, g.theta1_deg, g.theta2_deg, g.delta_deg)
     model = build_model(robot)
-    response = simulate_model(model, grid.theta1, grid.theta2)
+    with compiled_solves(task.compiled):
+        response = simulate_model(model, grid.theta1, grid.theta2)
+        frequency = arm_frequencies(model, grid.theta1, grid.theta2, 1)[:, 0]
     noise = resolution(response.signal("bridge"), robot.loadcell.noise_mV_V)
     over = overload(response, task.safety_factor, directions=0)
     need = compensation_need(response)
-    frequency = arm_frequencies(model, grid.theta1, grid.theta2, 1)[:, 0]
     summary = summarise(robot, grid, {
         "resolution_N": noise.worst, "overload_N": over.worst, "first_frequency_Hz": frequency,
         "phase_need_deg": need.worst_phase_deg, "amplitude_need": need.worst_amplitude,
@@ -301,8 +304,9 @@ def run_sweep(robot: Robot, axes: Sequence[Axis], *, grid: GridSpec | None = Non
     grid = grid or GridSpec()
     started = time.perf_counter()
     todo = variants(robot, axes)
-    outcomes = run_tasks(evaluate_safely, [Task(v.robot, grid, safety_factor) for v in todo], workers=workers,
-                         scheduler=scheduler, advance=advance)  # fmt: skip
+    compiled = len(todo) * grid.n**2 >= COMPILED_MIN_POSES  # the whole sweep's poses, about: worth loading numba for
+    tasks = [Task(v.robot, grid, safety_factor, compiled=compiled) for v in todo]
+    outcomes = run_tasks(evaluate_safely, tasks, workers=workers, scheduler=scheduler, advance=advance)
     rows = [o.value if o.ok else {"status": f"failed: {o.error}"} for o in outcomes]
     columns: dict[str, np.ndarray] = {"variant": np.arange(len(todo))}
     for a, axis in enumerate(axes):

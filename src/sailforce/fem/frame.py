@@ -39,6 +39,8 @@ They agree to :data:`BACKENDS_RTOL` of each load case's largest value
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -347,6 +349,19 @@ def prefer_compiled(on: bool = True) -> None:
     numpy): for a long workload of small calls, a sweep's variants or a fit's Jacobians."""
     global _prefer_compiled
     _prefer_compiled = bool(on)
+
+
+@contextmanager
+def compiled_solves(on: bool = True) -> Iterator[None]:
+    """A block whose solves prefer the compiled back-end whatever their size (:func:`prefer_compiled`) when ``on``;
+    the preference before it comes back after."""
+    global _prefer_compiled
+    previous = _prefer_compiled
+    _prefer_compiled = previous or bool(on)
+    try:
+        yield
+    finally:
+        _prefer_compiled = previous
 
 
 def _compiled(configurations: int):

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validate import as_float_arrays
-from .frame import Frame, assemble, assemble_basis, matrix_basis
+from .frame import Frame, _compiled, assemble, assemble_basis, matrix_basis
 from .model import LOADCELL_MEMBERS, MEMBER_LINK, ArmModel
 
 #: Modes :func:`arm_modes` returns by default: the first three are the arm's bending modes that matter for haptics.
@@ -119,8 +119,32 @@ def lowest_frequencies(frame: Frame, mass_basis: np.ndarray, angles: np.ndarray,
     :func:`frame_modes` to the eigensolver's rounding (tested).
     """
     angles = np.asarray(angles, dtype=float)
+    n = mass_basis.shape[-1]
+    compiled = _compiled(len(angles))
+    if compiled is not None and count + SUBSPACE_GUARD < n and len(angles):
+        return _subspace_compiled(compiled, frame, mass_basis, angles, count)
     parts = [_subspace_chunk(frame, mass_basis, angles[s : s + MODES_CHUNK], count) for s in range(0, len(angles), MODES_CHUNK)]
     return np.concatenate(parts) if parts else np.zeros((0, count))
+
+
+def _subspace_compiled(compiled, frame: Frame, mass_basis: np.ndarray, angles: np.ndarray, count: int) -> np.ndarray:
+    """:func:`lowest_frequencies` one pose at a time (:func:`sailforce.fem._compiled.lowest_eigenvalues`): the same
+    start, steps and stopping rule as :func:`_subspace_chunk`, K factorised by the static solve's profile Cholesky."""
+    plan = frame.profile
+    order = plan.order
+    mass = mass_basis[:, order][:, :, order]
+    rows, cols = np.nonzero(np.tril(np.any(mass != 0.0, axis=0)))
+    mcoef = np.ascontiguousarray(mass[:, rows, cols].T)
+    n = mass.shape[-1]
+    start = np.ascontiguousarray(np.random.default_rng(0).standard_normal((n, count + SUBSPACE_GUARD))[order])
+    eigenvalues = np.empty((len(angles), count))
+    late = np.zeros(len(angles), dtype=np.bool_)
+    compiled.lowest_eigenvalues(np.ascontiguousarray(angles), plan.rows, plan.cols, plan.coef, plan.first,
+                                rows.astype(np.int64), cols.astype(np.int64), mcoef, start, count, SUBSPACE_MAX_STEPS,
+                                SUBSPACE_RESIDUAL, eigenvalues, late)  # fmt: skip
+    if late.any():  # still moving after the last step, or a subspace that lost rank: the full reduction
+        eigenvalues[late] = (2.0 * math.pi * _modes_chunk(frame, mass_basis, angles[late], count)[0]) ** 2
+    return np.sqrt(np.clip(eigenvalues, 0.0, None)) / (2.0 * math.pi)
 
 
 def _subspace_chunk(frame: Frame, mass_basis: np.ndarray, angles: np.ndarray, count: int) -> np.ndarray:
@@ -183,6 +207,24 @@ def arm_frequencies(model: ArmModel, theta1, theta2, count: int = 1) -> np.ndarr
     return lowest_frequencies(model.frame, arm_mass_basis(model), angles, count).reshape(theta1.shape + (count,))
 
 
+def load_compiled() -> bool:
+    """Compile the frame's compiled solves (static and modes) into numba's on-disk cache, or load them from it: the
+    first compilation takes about 8 s, a load 0.5 s.  ``make install`` runs it once (``python -m
+    sailforce.fem.modes``), so that no test or command compiles them.  False without numba."""
+    from ..robot import Robot
+    from .frame import compiled_solves
+    from .model import build_model
+    from .response import simulate_model
+
+    model = build_model(Robot())
+    with compiled_solves():
+        if _compiled(1) is None:
+            return False
+        arm_frequencies(model, np.array([1.2, 1.5]), np.array([0.0, 0.3]))
+        simulate_model(model, 1.2, 0.0)
+    return True
+
+
 def arm_modes(model: ArmModel, theta1, theta2, count: int = DEFAULT_MODES) -> Modes:
     """The ``count`` lowest natural modes of the arm at every pose [rad], with its cells' compliance and the handle."""
     theta1, theta2 = as_float_arrays(theta1=theta1, theta2=theta2)
@@ -190,3 +232,7 @@ def arm_modes(model: ArmModel, theta1, theta2, count: int = DEFAULT_MODES) -> Mo
     angles = np.stack([theta1.ravel(), theta2.ravel()], axis=-1)
     modes = frame_modes(model.frame, arm_mass_basis(model), angles, count)
     return Modes(modes.frequencies_Hz.reshape(shape + (-1,)), modes.shapes.reshape(shape + modes.shapes.shape[1:]))
+
+
+if __name__ == "__main__":  # pragma: no cover - make install's warm-up
+    load_compiled()
