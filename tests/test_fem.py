@@ -269,6 +269,9 @@ def test_the_compiled_solve_is_the_stacked_numpy_solve(robot, shear):
         try:
             assert fe._compiled(len(angles)) is not None
             compiled = solve(model.frame, angles, model.loads)
+            stacked = fe.solve_many([model.frame, model.frame], angles, model.loads)  # a Jacobian's frames, compiled
+            for each in stacked:
+                np.testing.assert_array_equal(each.displacements, compiled.displacements)
         finally:
             fe.prefer_compiled(False)
         assert fe._compiled(fe.COMPILED_MIN_POSES) is not None  # a large call takes it unasked

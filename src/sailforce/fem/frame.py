@@ -317,13 +317,16 @@ def solve_many(frames, angles, loads) -> list[FrameSolution]:
         return []
     angles = np.asarray(angles, dtype=float)
     loads = np.asarray(loads, dtype=float)
-    if len(frames) == 1 or not same_topology(frames) or _compiled(len(frames) * len(angles)) is not None:
+    if len(frames) == 1 or not same_topology(frames):
         return [solve(frame, angles, loads) for frame in frames]
     first = frames[0]
     if angles.ndim != 2 or angles.shape[1] != first.n_axes:
         raise ShapeError(f"angles: expected shape (N, {first.n_axes}), got {angles.shape}")
     if loads.ndim != 2 or loads.shape[0] != first.n_dofs:
         raise ShapeError(f"loads: expected shape ({first.n_dofs}, L), got {loads.shape}")
+    compiled = _compiled(len(frames) * len(angles))  # the whole call's configurations decide, as one solve's do
+    if compiled is not None:
+        return [_solve_compiled(compiled, frame, angles, loads) for frame in frames]
     step = max(1, CHUNK // max(len(angles), 1))
     out: list[FrameSolution] = []
     for start in range(0, len(frames), step):
