@@ -40,8 +40,6 @@ from ..errors import InputError, MissingExtraError
 from ..robot import JOINT_NAMES
 from .model import JOINT_SLOTS, JOINTS, MEMBERS, NODES, ArmModel, _rigidities, node_positions
 
-#: The node each rotation slot is, in OpenSees: the first body of a joint keeps the joint's own node.
-_SLOT_NODES = ("P1/l1", "P1/l4", "P2/l2", "P2/l3", "P3/l3", "P3/l4")
 _GROUND_TAG = 99
 #: The pose [rad] the model is built at, before :meth:`OpenSeesArm.move` puts it anywhere.
 START_POSE = (np.pi / 2, 0.0)
@@ -77,10 +75,11 @@ class OpenSeesArm:
         ops.wipe()
         ops.model("basic", "-ndm", 2, "-ndf", 3)
         tags = {name: k + 1 for k, name in enumerate(NODES)}
-        for k, slot in enumerate(_SLOT_NODES):  # a joint's second body: a node of its own at the joint
-            tags[slot] = tags[slot[:2]] if slot in (first for first, _ in JOINTS) else len(NODES) + 1 + k
+        for k, (first, second) in enumerate(JOINTS):  # a joint's first body keeps its node, the second has its own
+            tags[first] = tags[first.split("/")[0]]
+            tags[second] = len(NODES) + 1 + k
         self.tags = tags
-        self._moving = sorted({tag: name.split("/")[0] for name, tag in tags.items()}.items())
+        self._moving = sorted({tag: name.split("/")[0] for name, tag in tags.items()}.items())  # (tag, node), each once
         start = node_positions(model, START_POSE[0], START_POSE[1])  # members of zero length cannot be made
         for tag, node in self._moving:
             ops.node(tag, *(float(x) for x in start[node]))
