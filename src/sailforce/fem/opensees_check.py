@@ -1,8 +1,11 @@
 """The same SAIL arm frame in OpenSees (OpenSeesPy), the strongest open frame solver, for cross-checks and speed.
 
 OpenSeesPy (``pip install openseespy``, in the dev extra) is imported only
-when called.  It is used as its users would use it well, one model for every
-pose (:class:`OpenSeesArm`):
+when called.  Its licence allows research, education and internal use:
+sailforce calls it in its tests and benchmarks and neither ships nor needs it.
+
+It is used as its users would use it well, one model for every pose
+(:class:`OpenSeesArm`):
 
 - a 2-D model (``-ndm 2 -ndf 3``), one node per body end: a pin joint is two
   nodes at one point, their translations tied by ``equalDOF``; a bonded joint
