@@ -111,11 +111,6 @@ class Profile:
     coef: np.ndarray
     first: np.ndarray
 
-    @property
-    def envelope(self) -> int:
-        """Entries of L below the diagonal inside the envelope (the factor's size)."""
-        return int(np.sum(np.arange(self.first.size) - self.first))
-
 
 def make_profile(basis: np.ndarray, fixed: np.ndarray) -> Profile:
     """The :class:`Profile` of a stiffness basis ``(M, n_free, n_free)`` over the DOFs not ``fixed``: the order
