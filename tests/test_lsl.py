@@ -76,6 +76,22 @@ def test_rows_read_late_by_a_stalled_reader_do_not_bend_the_clock():
     assert np.max(np.abs(mapped[25:] - 0.015 - true[25:])) <= 2e-3
 
 
+def test_a_stall_as_a_clock_bin_opens_does_not_tilt_the_stamps():
+    """Two seconds on time, then the reader stalls 8 ms as a new 1 s bin opens (a loaded machine): the bin's least
+    delay so far is the stall's, and as the hull's newest vertex it tilted the line, stamps 5.5 ms off (a loaded full
+    run, 3 December).  The open bin joins the fit once closed: the stamps hold 2 ms through the stall."""
+    rng = np.random.default_rng(2)
+    device = lambda true: 1000.0 + (1 + 50e-6) * true
+    true = 100.1 + 0.002 * np.arange(1500)  # 3 s at 500 Hz: the bins of 100, 101, 102 and 103 s on the device's clock
+    arrival = true + 0.015 + rng.exponential(2e-4, true.size)
+    opens = np.flatnonzero(np.floor(device(true)) == 1102.0)[0]  # the first sample of the device's 1102 s bin
+    stalled = slice(opens, opens + 10)
+    arrival[stalled] = np.maximum(arrival[stalled], arrival[opens + 9] + 0.008)  # held by the stall, then read at once
+    clock = DeviceClock()
+    mapped = np.concatenate([clock.to_lsl(device(true[i:i + 10]), arrival[i:i + 10]) for i in range(0, true.size, 10)])
+    assert np.max(np.abs(mapped[25:] - 0.015 - true[25:])) <= 2e-3
+
+
 def test_a_regular_stream_declares_its_rate():
     assert nominal_rate(0.002 * np.arange(64) + 0.00001 * np.sin(np.arange(64))) == pytest.approx(500.0, rel=1e-3)
     assert nominal_rate(np.cumsum(np.random.default_rng(1).exponential(0.002, 64))) == 0.0

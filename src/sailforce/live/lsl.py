@@ -89,9 +89,10 @@ class DeviceClock:
     of ``arrival - t`` (transport only adds delay).  Each :data:`BIN_S` bin of the last :data:`WINDOW_S` keeps its
     least delay; the offset is the line fitted through the newest run of the bins' lower convex hull whose edges
     slope no more than :data:`MAX_DRIFT` (the device's drift), as clock-skew estimation from one-way delays does
-    (Moon, Skelly and Towsley, IEEE INFOCOM 1999).  An edge steeper than any clock drifts is a delay that passed (a
-    reader that stalled on its first rows), and the hull before it is left out.  A step back in ``t`` or a jump of
-    the offset beyond :data:`RESET_S` (a device that restarted) starts the fit again."""
+    (Moon, Skelly and Towsley, IEEE INFOCOM 1999); the newest bin, still open, joins the fit once closed.  An edge
+    steeper than any clock drifts is a delay that passed (a reader that stalled on its first rows), and the hull
+    before it is left out.  A step back in ``t`` or a jump of the offset beyond :data:`RESET_S` (a device that
+    restarted) starts the fit again."""
 
     BIN_S = 1.0
     WINDOW_S = 60.0
@@ -107,9 +108,12 @@ class DeviceClock:
         """The fitted ``arrival - t`` at ``t``."""
         if not self._bins:
             return np.full(np.shape(t), np.nan)
-        points = _drifting_envelope(np.array([b[1:] for b in self._bins]), self.MAX_DRIFT)
+        bins = np.array([b[1:] for b in self._bins])
+        # the newest bin is still open: its least delay so far may be a stall's, as the bin opened, and as the hull's
+        # last vertex it would tilt the line by that much; it enters once closed (and the constant below at once)
+        points = _drifting_envelope(bins[:-1], self.MAX_DRIFT) if len(bins) > 2 else bins[:0]
         if len(points) < 2 or np.ptp(points[:, 0]) < self.BIN_S:
-            return np.full(np.shape(t), points[:, 1].min())
+            return np.full(np.shape(t), bins[:, 1].min())
         slope, intercept = np.polyfit(points[:, 0] - points[0, 0], points[:, 1], 1)
         return intercept + slope * (np.asarray(t) - points[0, 0])
 
