@@ -6,6 +6,7 @@ import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -121,6 +122,26 @@ def test_python_dash_m_runs_the_cli(module):
     completed = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True, text=True, check=False)
     assert completed.returncode == 0 and "Usage: sail" in completed.stdout
 
+
+
+def test_the_sail_process_runs_without_pandas_unless_asked(tmp_path):
+    """pyarrow would import pandas (0.2 s) on its first array; sail's process keeps it out, and SAIL_PANDAS=1 lets it in."""
+    import os
+
+    from sailforce.cli import PANDAS_ENV
+
+    pytest.importorskip("pandas")
+    (tmp_path / "in.csv").write_text("theta1_deg,theta2_deg,load1,load2\n90,10,1000,2000\n")
+    cal = str(Path(__file__).resolve().parents[1] / "c" / "examples" / "calibration.json")
+    code = ("import sys; from sailforce.cli import main; sys.argv = ['sail', 'estimate', '--calibration', sys.argv[1], "
+            "sys.argv[2], '-o', sys.argv[3], '-q']\ntry:\n    main()\nexcept SystemExit:\n    pass\n"
+            "print(sys.modules.get('pandas') is not None)")
+    for allowed, loaded in (("", "False"), ("1", "True")):
+        env = {**os.environ, PANDAS_ENV: allowed}
+        done = subprocess.run([sys.executable, "-c", code, cal, str(tmp_path / "in.csv"), str(tmp_path / "out.csv")],
+                              capture_output=True, text=True, env=env, check=True)  # fmt: skip
+        assert done.stdout.split()[-1] == loaded
+        assert (tmp_path / "out.csv").read_text().count("\n") == 2
 
 def _csv(path):
     import csv

@@ -171,3 +171,17 @@ def test_at_bound_is_judged_relative_to_each_bound():
                          collinearity=np.zeros(3), residuals=np.zeros((1, 1)), residual_columns=("r",), metrics={},
                          bounds=((0.01, 1e7), (0.01, 1e7), (0.0, 1.0)), starts=1, success=True)  # fmt: skip
     assert fit.at_bound() == ("kk", "c")
+
+
+def test_many_parameters_start_from_a_latin_hypercube_the_same_every_run():
+    """Beyond MAX_STARTS grid points: one start in each of MAX_STARTS equal slices of every parameter's range."""
+    from sailforce.fit.identify import MAX_STARTS, _starts
+
+    low, high = np.array([1.0, -2.0, 0.0, 10.0, 5.0]), np.array([2.0, 2.0, 1e-3, 20.0, 6.0])
+    starts = _starts(low, high, 3)
+    assert starts.shape == (MAX_STARTS, 5) and np.all((starts > low) & (starts < high))
+    slices = np.floor((starts - low) / (high - low) * MAX_STARTS).astype(int)
+    for column in slices.T:
+        assert sorted(column) == list(range(MAX_STARTS))
+    np.testing.assert_array_equal(starts, _starts(low, high, 3))
+    assert np.corrcoef(starts.T)[np.triu_indices(5, 1)].max() < 0.9  # not the grid's diagonal: parameters are paired at random

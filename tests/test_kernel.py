@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -175,3 +177,37 @@ def test_sail_estimate_does_not_load_numba(tmp_path):
     done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "cal.json"), str(tmp_path / "in.csv"),
                            str(tmp_path / "out.csv")], capture_output=True, text=True, env=env, check=True)  # fmt: skip
     assert done.stdout.strip().endswith("False") and (tmp_path / "out.csv").read_text().count("\n") == 2
+
+
+def test_a_small_call_stays_on_numpy_until_the_compiled_module_is_loaded():
+    """The size rule: numba loads for a call of COMPILED_MIN_POSES poses, and then serves every call."""
+    import os
+    import subprocess
+    import sys
+
+    code = """
+import sys, numpy as np
+from sailforce import kernel
+from sailforce.calibration.file import Calibration
+cal = Calibration.load(sys.argv[1])
+kernel.COMPILED_MIN_POSES = 2000
+def call(n):
+    theta = np.full(n, 1.2)
+    return cal.estimate(theta, theta - 1.0, np.full(n, 5e4), np.full(n, -3e4))
+call(1999)
+print('numba' in sys.modules, kernel.compiled(10) is None)
+call(2000)
+print('numba' in sys.modules, kernel.compiled(10) is None)
+"""
+    env = {k: v for k, v in os.environ.items() if k != kernel.BACKEND_ENV}
+    cal = str(Path(__file__).resolve().parents[1] / "c" / "examples" / "calibration.json")
+    done = subprocess.run([sys.executable, "-c", code, cal], capture_output=True, text=True, env=env, check=True)
+    assert done.stdout.split() == ["False", "True", "True", "False"]
+
+
+def test_a_backend_chosen_by_name_serves_calls_of_any_size(monkeypatch):
+    monkeypatch.delenv(kernel.BACKEND_ENV, raising=False)
+    with kernel.use_backend("compiled"):
+        assert kernel.compiled(1) is not None
+    with kernel.use_backend("numpy"):
+        assert kernel.compiled(10 * kernel.COMPILED_MIN_POSES) is None

@@ -1,8 +1,8 @@
-"""The installed package's version (``0+unknown`` in a source tree that is not installed)."""
+"""The package's version: the one place it is written (pyproject.toml reads it from here when the package is built).
 
-from importlib.metadata import PackageNotFoundError, version
+A literal, not ``importlib.metadata.version("sailforce")``: that import costs
+about 50 ms, a twentieth of a short ``sail`` command, and every command
+reads the version (the calibration file's ``software`` field, ``--version``).
+"""
 
-try:
-    __version__ = version("sailforce")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0+unknown"
+__version__ = "0.1.0"

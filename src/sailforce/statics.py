@@ -130,7 +130,8 @@ def end_effector_force(
     def run(start: int) -> None:
         block = slice(start, start + BLOCK)
         th1, th2, tq1, tq2 = (a[block] for a in flat)
-        fx[block], fy[block], singular[block] = kernel.force_from_torques(arm.l2, arm.l3, th1, th2, tq1, tq2, min_sin_delta)
+        fx[block], fy[block], singular[block] = kernel.force_from_torques(arm.l2, arm.l3, th1, th2, tq1, tq2, min_sin_delta,
+                                                                          theta1.size)  # fmt: skip
 
     for_each_block(theta1.size, BLOCK, THREADS, run)
     return force_result(theta1, theta2, fx.reshape(shape)[()], fy.reshape(shape)[()], singular.reshape(shape)[()], on_singular,

@@ -111,10 +111,12 @@ def _run_blocks(cal, arrays, shear_model, threads, motion=None, min_sin_delta=SI
     fx, fy, status = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
     inertial = np.empty((n, 2)) if shear_model is not None else None
 
+    module = kernel.compiled(n)
+
     def run(start: int) -> None:
         stop = min(start + BLOCK, n)
         rates = motion(start, stop) if shear_model is not None else ()
-        out = _estimate_block(cal, shear_model, min_sin_delta, *(a[start:stop] for a in flat), *rates)
+        out = _estimate_block(module, cal, shear_model, min_sin_delta, *(a[start:stop] for a in flat), *rates)
         fx[start:stop], fy[start:stop], status[start:stop] = out[:3]
         if inertial is not None:
             inertial[start:stop, 0], inertial[start:stop, 1] = out[3]
@@ -124,8 +126,7 @@ def _run_blocks(cal, arrays, shear_model, threads, motion=None, min_sin_delta=SI
             None if inertial is None else inertial.reshape(shape + (2,)))  # fmt: skip
 
 
-def _estimate_block(cal, shear_model, min_sin_delta, theta1, theta2, load1, load2, *motion):
-    module = kernel.compiled()
+def _estimate_block(module, cal, shear_model, min_sin_delta, theta1, theta2, load1, load2, *motion):
     series = getattr(cal.model, "matrix_series", None)
     if module is not None and shear_model is None and series is not None:
         return _estimate_compiled(module, cal, series(), min_sin_delta, theta1, theta2, load1, load2)

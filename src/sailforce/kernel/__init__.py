@@ -20,8 +20,11 @@ rule) and the singularity predicate :func:`sailforce.kinematics.is_singular`.
 Two back-ends compute it, with the same arithmetic:
 
 - ``"compiled"``: numba (:mod:`sailforce.kernel._compiled`), one pose at a
-  time with a polynomial sine and cosine; about 10-20 times numpy's speed
-  (``make bench``).  Used when numba imports.
+  time with a polynomial sine and cosine; about 5-20 times numpy's speed
+  (``make bench``).  Used when numba imports, by a call of at least
+  :data:`COMPILED_MIN_POSES` poses, and by every call once it is loaded:
+  loading numba and the cached kernel costs about 0.6 s, which only such a
+  call repays.
 - ``"numpy"``: numpy ufuncs on blocks that stay in the cache.  The
   reference, and the fallback without numba.
 
@@ -29,7 +32,9 @@ They agree to rounding (within 1e-13 relative, tested), and on every
 singular verdict exactly: a pose within :data:`VERDICT_BAND` of the
 threshold is settled by the numpy path.  Choose with the environment
 variable ``SAILFORCE_KERNEL`` (``numpy`` or ``compiled``) or
-:func:`use_backend`; the default is ``compiled`` when numba is installed.
+:func:`use_backend` (either, chosen so, serves every call whatever its
+size); the default is ``compiled`` when numba is installed, with the size
+rule above.
 """
 
 from __future__ import annotations
@@ -53,6 +58,11 @@ __all__ = ["BACKENDS", "BACKEND_ENV", "Entries", "backend", "compiled", "entries
 BACKENDS = ("compiled", "numpy")
 #: The environment variable that picks the back-end.
 BACKEND_ENV = "SAILFORCE_KERNEL"
+
+#: A call of fewer poses runs on numpy until the compiled module is loaded (unless it was chosen explicitly): loading
+#: numba and the cached kernel costs about 0.6 s, and the compiled kernel saves about 75 ms per million poses
+#: (measured on the two back-ends: 96 against 21 ms for 1e6 poses), so only a call of several million repays it.
+COMPILED_MIN_POSES = 5_000_000
 
 _module = None  # the compiled module, once imported
 _chosen: str | None = None
@@ -151,9 +161,21 @@ def prefer_backend(name: str) -> None:
         _chosen = name if name == "numpy" or _load_compiled(required=False) else "numpy"
 
 
-def compiled():
-    """The compiled module, or None on the numpy back-end."""
+def compiled(poses: int | None = None):
+    """The compiled module for a call of ``poses`` poses, or None on the numpy back-end.
+
+    Also None for a call of fewer than :data:`COMPILED_MIN_POSES` while the
+    module is not loaded, unless the compiled back-end was chosen
+    explicitly (:data:`BACKEND_ENV`, :func:`use_backend`).
+    """
+    if poses is not None and poses < COMPILED_MIN_POSES and _module is None and not _explicit():
+        return None
     return _module if backend() == "compiled" else None
+
+
+def _explicit() -> bool:
+    """Whether the compiled back-end was asked for by name."""
+    return _chosen == "compiled" or os.environ.get(BACKEND_ENV, "").strip().lower() == "compiled"
 
 
 def _load_compiled(required: bool) -> bool:
@@ -170,14 +192,16 @@ def _load_compiled(required: bool) -> bool:
     return True
 
 
-def force_from_torques(l2: float, l3: float, theta1, theta2, t1, t2, min_sin_delta: float):
+def force_from_torques(l2: float, l3: float, theta1, theta2, t1, t2, min_sin_delta: float, poses: int | None = None):
     """F = (J^T)^-1 T [N] on one block of 1-D arrays: ``(fx, fy, singular)``, NaN where singular.
 
     J^T from :func:`torque_entries`, solved by :func:`solve_2x2` (seed Eqs. 3
     and 8 with the corrected inverse, docs/errata.md); ``singular`` is
     :func:`sailforce.kinematics.is_singular` of sin(theta1 - theta2).
+    ``poses`` is the size of the whole call the block belongs to (the
+    block's own by default), for :func:`compiled`'s size rule.
     """
-    module = compiled()
+    module = compiled(theta1.size if poses is None else poses)
     if module is None:
         return _force_numpy(l2, l3, theta1, theta2, t1, t2, min_sin_delta)
     n = theta1.size

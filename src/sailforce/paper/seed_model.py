@@ -70,7 +70,7 @@ class Family:
 
 
 #: The families the report fits, from the seed's likely SolidWorks default (bonded contact) to the closest found.
-#: Each runs 17 starts (the robot's values and a 16-point Sobol' sample within identify's default bounds).
+#: Each runs 17 starts (the robot's values and a 16-point Latin hypercube sample within identify's default bounds).
 FAMILIES = (
     Family("bonded", "bonded joints, datasheet cell, far-face deflection; l2, l3 and the cell position free",
            ("links.l2", "links.l3", "loadcells.position"), fixed={"joints.model": "bonded"}),
