@@ -824,3 +824,25 @@ def test_ctrl_c_while_dask_workers_start_exits_cleanly(delay_s):
     result = subprocess.run([sys.executable, "-c", DASK_INTERRUPTED, str(delay_s)], capture_output=True, text=True, timeout=120)
     assert result.returncode in (130, 3), result.stderr
     assert "Traceback" not in result.stderr and "AssertionError" not in result.stderr, result.stderr
+
+
+def test_held_signals_wait_for_the_section_and_act_at_once_outside_it():
+    """The stream's Ctrl-C guard: inside a held section SIGINT waits for its end; outside it acts at once; the
+    handlers are restored after."""
+    import signal
+
+    from sailforce._signals import HeldSignals
+
+    before = signal.getsignal(signal.SIGINT)
+    done = []
+    with pytest.raises(KeyboardInterrupt):
+        with HeldSignals() as signals:
+            with signals.held():
+                signal.raise_signal(signal.SIGINT)
+                done.append("the section ran on")
+            done.append("not reached")
+    assert done == ["the section ran on"]
+    with pytest.raises(KeyboardInterrupt):
+        with HeldSignals():
+            signal.raise_signal(signal.SIGINT)
+    assert signal.getsignal(signal.SIGINT) is before

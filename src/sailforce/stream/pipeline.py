@@ -23,7 +23,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from .._signals import signals_deferred
+from .._signals import HeldSignals
 from ..calibration.file import Calibration
 from ..estimate.estimator import INVALID, STATUS_NAMES
 from ..estimate.filters import LowPass
@@ -386,11 +386,12 @@ def estimate_lines(cal: Calibration, lines: Iterable[bytes], open_output: Callab
         counts += chunk_counts
 
     try:
-        for raw in csv_chunks(source, header, needed, _whole_lines(lines), fast=False):
-            chunk = _compensated(raw, cal)
-            with signals_deferred():  # a row the stage has released is written before Ctrl-C acts
-                for ready in stage.push(chunk) if stage is not None else [(chunk, None)]:
-                    write(*ready)
+        with HeldSignals() as signals:
+            for raw in csv_chunks(source, header, needed, _whole_lines(lines), fast=False):
+                chunk = _compensated(raw, cal)
+                with signals.held():  # a row the stage has released is written before Ctrl-C acts
+                    for ready in stage.push(chunk) if stage is not None else [(chunk, None)]:
+                        write(*ready)
     except KeyboardInterrupt:  # keep every row read: those still waiting for their window go out unknown
         for ready in stage.finish() if stage is not None else ():
             write(*ready)
