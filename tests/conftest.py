@@ -34,9 +34,17 @@ def arms(draw) -> Arm:
 
 @pytest.fixture(scope="session", autouse=True)
 def _force_kernel_loaded():
-    """The force kernel's first call loads numba and its compiled code (about a second): done once, before any test,
-    so that a property test's time limit (hypothesis' deadline) measures its examples, not the loading."""
-    Arm().end_effector_force(0.5, 0.1, 1.0, 2.0)
+    """The compiled force kernel's first use loads numba and its compiled code (about 0.6 s): done once, before any
+    test, so that a property test's time limit (hypothesis' deadline) measures its examples, not the loading.  Once
+    loaded it serves every call of the process, whatever its size (sailforce.kernel.COMPILED_MIN_POSES), as before."""
+    from sailforce import kernel
+    from sailforce.errors import MissingExtraError
+
+    try:
+        with kernel.use_backend("compiled"):
+            Arm().end_effector_force(0.5, 0.1, 1.0, 2.0)
+    except MissingExtraError:  # without numba the numpy path serves, with nothing to load
+        pass
 
 
 @pytest.fixture(scope="session")

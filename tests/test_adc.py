@@ -322,13 +322,30 @@ def _write(rec, path: Path) -> None:
         write(columns)
 
 
+#: A live stream's first second comes a line at a time (every conversion, window and motion state starts in it) ...
+SINGLE_LINES = 1000
+#: ... the rest in blocks of 1 to this many lines, as a gathered stream hands them over (seeded: the same each run).
+MAX_BLOCK_LINES = 40
+
+
+def _live_blocks(lines: list[bytes]) -> list[bytes]:
+    """The header, then blocks as a live stream gives them: line by line at first, then of random sizes."""
+    blocks, k = lines[: 1 + SINGLE_LINES], 1 + SINGLE_LINES
+    rng = np.random.default_rng(7)
+    while k < len(lines):
+        size = int(rng.integers(1, MAX_BLOCK_LINES + 1))
+        blocks.append(b"".join(lines[k : k + size]))
+        k += size
+    return blocks
+
+
 def test_a_file_and_a_live_stream_give_the_same_bytes(rig, tmp_path):
     *_, cal, task = rig
     _write(task, tmp_path / "task.csv")
     stream_estimate(cal, tmp_path / "task.csv", tmp_path / "file.csv")
     sink = io.BytesIO()
     lines = (tmp_path / "task.csv").read_bytes().splitlines(keepends=True)
-    estimate_lines(cal, iter(lines), lambda: sink)
+    estimate_lines(cal, iter(_live_blocks(lines)), lambda: sink)
     assert sink.getvalue() == (tmp_path / "file.csv").read_bytes()
     header = (tmp_path / "file.csv").read_text().splitlines()[0]
     assert header.endswith(",fx_N,fy_N,force_N,angle_deg,inertial1,inertial2,force_t_s,status")
