@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
+import tempfile
 
 import numpy as np
 import pytest
@@ -15,6 +18,14 @@ from sailforce import Arm
 # timing tests (a 1 kHz link, LSL stamps within 2 ms) failed when a fit's pool took their core (CI on 385608e).  The
 # pool itself is tested in tests/test_seed_model.py (two workers, two small families).  Subprocesses inherit this.
 os.environ.setdefault("SAIL_WORKERS", "1")
+
+# The commands' caches (the seed model's fits, solved solid poses) in one folder for the session, never the user's
+# ~/.cache: a run is the same on a fresh machine (CI) as here.  xdist's workers inherit the controller's environment,
+# so the workers and the commands they run share it, and a fit one test computes serves the next, as a user's second
+# run would be served.  Tests of the caches themselves give their own folders.
+if "SAIL_CACHE_DIR" not in os.environ:
+    os.environ["SAIL_CACHE_DIR"] = tempfile.mkdtemp(prefix="sail-test-cache-")
+    atexit.register(shutil.rmtree, os.environ["SAIL_CACHE_DIR"], ignore_errors=True)
 
 #: Angles drawn for property tests [rad]; wider than a turn to exercise wrapping.
 angles = st.floats(min_value=-2 * np.pi, max_value=2 * np.pi, allow_nan=False)

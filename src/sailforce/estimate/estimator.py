@@ -142,12 +142,18 @@ def _estimate_compiled(module, cal, series, min_sin_delta, theta1, theta2, load1
     module.estimate_matrix(model.arm.l2, model.arm.l3, coefficients, cheb_lo, cheb_hi,
                            np.asarray(offsets, dtype=float), np.asarray(capacity, dtype=float),
                            delta_range[0] - DELTA_RANGE_SLACK, delta_range[1] + DELTA_RANGE_SLACK, min_sin_delta,
-                           theta1, theta2, load1, load2, fx, fy, status, near)  # fmt: skip
+                           *_owned(theta1, theta2, load1, load2), fx, fy, status, near)  # fmt: skip
     rows = np.flatnonzero(near)
     if rows.size:
         fx[rows], fy[rows], status[rows], _ = _estimate_numpy(cal, None, min_sin_delta,
                                                               *(a[rows] for a in (theta1, theta2, load1, load2)))  # fmt: skip
     return fx, fy, status, None
+
+
+def _owned(*arrays: np.ndarray) -> list[np.ndarray]:
+    """Each array as one that owns its strided memory: a broadcast scalar (stride 0) is copied out, as numba will
+    refuse views of broadcasts (its FutureWarning)."""
+    return [a if a.strides != (0,) or a.size <= 1 else np.ascontiguousarray(a) for a in arrays]
 
 
 def _estimate_numpy(cal, shear_model, min_sin_delta, theta1, theta2, load1, load2, *motion):
