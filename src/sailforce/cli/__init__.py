@@ -162,7 +162,8 @@ def _without_pandas() -> None:
     """
     if "pandas" in sys.modules or os.environ.get(PANDAS_ENV, "").strip().lower() in ("1", "true", "yes"):
         return
-    sys.meta_path.insert(0, _NoPandas())
+    if not any(isinstance(finder, _NoPandas) for finder in sys.meta_path):  # main() called again in one process
+        sys.meta_path.insert(0, _NoPandas())
 
 
 class _NoPandas:
