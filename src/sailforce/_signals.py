@@ -17,24 +17,11 @@ def signals_deferred() -> Iterator[None]:
 
     A row taken from a motion stage but not yet written would be lost if
     Ctrl-C struck in between; inside this block it cannot.  Signals reach
-    only the main thread, so elsewhere the block runs as it is.
+    only the main thread, so elsewhere the block runs as it is.  One
+    :class:`HeldSignals` section; a loop of many uses one :class:`HeldSignals`.
     """
-    if threading.current_thread() is not threading.main_thread():
+    with HeldSignals() as signals, signals.held():
         yield
-        return
-    caught: list[int] = []
-    previous = {s: signal.signal(s, lambda signum, frame: caught.append(signum)) for s in DEFERRED_SIGNALS}
-    try:
-        yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-        for s in dict.fromkeys(caught):
-            handler = previous[s]
-            if callable(handler):
-                handler(s, None)
-            elif handler == signal.SIG_DFL:
-                signal.raise_signal(s)
 
 
 class HeldSignals:
