@@ -16,11 +16,13 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import sailforce.io.tables as tables
+import sailforce.stream.output as output
 from sailforce.calibration.file import Calibration
 from sailforce.estimate.estimator import INVALID, STATUS_NAMES
 from sailforce.io.tables import READING_COLUMNS, read_chunks, read_line
@@ -164,3 +166,27 @@ def test_one_singularity_verdict_at_the_threshold():
     check_not_singular(theta1[~expected], theta2[~expected])
     with pytest.raises(ValueError, match="singular pose"):
         check_not_singular(theta1[expected][:1], theta2[expected][:1])
+
+
+_ROW_VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([0.0, -0.0, 1e-300, 5e-324, 1e16, 123456789.0]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 3 * output.SMALL_BLOCK_ROWS), columns=st.integers(0, 7), data=st.data())
+def test_a_few_rows_are_joined_as_arrow_joins_many(n, columns, data):
+    """csv_rows joins a live block's few rows in Python and a file's many through Arrow: the same bytes either way,
+    for any numbers (NaN and infinities, signed zeros, subnormals, large and exact values), statuses and lines."""
+    lines = pa.array(data.draw(st.lists(st.binary(max_size=12).filter(lambda b: b"\n" not in b), min_size=n, max_size=n)),
+                     pa.binary())  # fmt: skip
+    values = {f"c{k}": np.array(data.draw(st.lists(_ROW_VALUES, min_size=n, max_size=n))) for k in range(columns)}
+    status = np.array(data.draw(st.lists(st.integers(0, len(STATUS_NAMES) - 1), min_size=n, max_size=n)), np.int8)
+    saved = output.SMALL_BLOCK_ROWS
+    try:
+        output.SMALL_BLOCK_ROWS = 0
+        by_arrow = output.csv_rows(lines, values, status)
+        output.SMALL_BLOCK_ROWS = n
+        by_python = output.csv_rows(lines, values, status)
+    finally:
+        output.SMALL_BLOCK_ROWS = saved
+    assert by_python == by_arrow
+    assert by_python.count(b"\n") == n  # one row a line
