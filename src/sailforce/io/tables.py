@@ -327,8 +327,9 @@ def _parse_slowly(data: bytes, names: list[str], needed: tuple[str, ...], first_
         kept.append(line)
         malformed.append(not ok or len(fields) != width)
         rows.append((fields + [""] * width)[:width])
-    columns = list(zip(*rows)) if rows else [()] * width
-    table = pa.table({n: pa.array(list(c), type=pa.string()) for n, c in zip(names, columns)})
+    n = len(rows)
+    flat = pa.array([field for column in zip(*rows) for field in column], type=pa.string())  # column after column
+    table = pa.Table.from_arrays([flat.slice(k * n, n) for k in range(width)], names)  # one array: a few lines' cost is the calls
     values = _floats(table, needed)
     return Chunk(table, values, np.array(malformed, dtype=bool), first_line, pa.array(kept, type=pa.binary()))
 
