@@ -26,6 +26,8 @@ from sailforce.workflows import nominal_calibration
 
 #: The simulated rig runs this many times real time in the pipeline test.
 SPEED = 10.0
+#: ... and in the page's test: fast enough to walk twelve holds in seconds, slow enough that a click lands in its hold.
+PAGE_SPEED = 3.0
 #: Every wait on the guide ends after this long [s] (the physics fit at the end takes about 7 s alone).
 WAIT_S = 120.0
 #: The guided calibration's true force error may reach this many times the achieved map's 1-sigma worst direction
@@ -156,7 +158,7 @@ def test_guided_calibration_in_chromium(plan_dir, tmp_path):
     if system_chromium() is None:
         pytest.fail("no Chromium on this machine: `make test` installs Debian's (`make chromium`)")
     record = tmp_path / "rec"
-    with live_process(["--simulate", "--calibrate", plan_dir / "plan.csv", "--record-dir", record]) as live:
+    with live_process(["--simulate", "--calibrate", plan_dir / "plan.csv", "--record-dir", record, "--speed", PAGE_SPEED]) as live:
         with browser_page(live.url) as page:
             page.wait_for_selector("#guide-panel:not([hidden])", timeout=WAIT_S * 1e3)
             page.wait_for_function("['move', 'hang', 'settle', 'record'].includes(document.getElementById('guide-phase').textContent)",
