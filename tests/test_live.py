@@ -9,6 +9,7 @@ import json
 import logging
 import subprocess
 import sys
+import threading
 import time
 import uuid
 
@@ -437,60 +438,84 @@ def _chromium():
 
 
 def test_page_in_chromium_shows_the_force_tares_records_and_flags_singular(cals, tmp_path):
-    """Replay at 1 kHz: the readouts, the latency, record, tare, a singular row, a screenshot."""
+    """A 1 kHz stream on stdin: the readouts, the latency, record, tare, a singular row, a screenshot.
+
+    The arm holds its pose until the page has recorded, tared and saved, however long a loaded machine takes; only
+    then do the singular rows come (a replay would fix that moment in advance: a long hold, waited for in full).
+    """
     _chromium()
     from sailforce.live.browser import browser_page, latencies_ms, live_process
 
     d, static, _ = cals
     load = (int(static.offsets[0]) + 250000, int(static.offsets[1]) - 120000)
-    # the hold outlasts the browser's start, the latency sample, a recording and a tare on a loaded machine (14 s
-    # ran out once under a parallel suite); the singular phase follows it
-    rate, hold_s, singular_s = 1000, 22.0, 4.0
+    rate, hold_s, singular_s = 1000, 120.0, 4.0
     rows = [(f"{i / rate:.3f}", *POSE, *load) for i in range(int(hold_s * rate))]
     rows += [(f"{hold_s + i / rate:.3f}", *SINGULAR, *load) for i in range(int(singular_s * rate))]
-    source = _table(tmp_path / "replay.csv", rows)
+    source = _table(tmp_path / "stream.csv", rows)
     fx, fy, status = static.estimate(*np.radians(POSE), *load)
     assert int(status) == 0
     expected = f"{np.hypot(fx, fy):.2f}"
     stream_estimate(static, source, tmp_path / "estimate.csv")
     estimated = (tmp_path / "estimate.csv").read_bytes().splitlines(keepends=True)
-    with live_process(["--calibration", d / "static.json", source, "--replay", "--record-dir", tmp_path / "rec"]) as live:
-        with browser_page(live.url) as page:
-            page.wait_for_function(f"document.getElementById('force-N').textContent === '{expected}'", timeout=WAIT_S * 1e3)
-            assert page.text_content("#fx-N") == f"{fx:.2f}" and page.text_content("#fy-N") == f"{fy:.2f}"
-            assert page.text_content("#angle-deg") == f"{np.degrees(np.arctan2(fy, fx)):.1f}"
-            assert page.text_content("#status") == "ok"
-            page.wait_for_timeout(2000)
-            latency = latencies_ms(page)
-            # the rows keep coming while the stream runs, each with its time of reading
-            assert latency.size > 30 and np.all(np.isfinite(latency)), latency
-            assert np.median(latency) <= LIVE_LATENCY_BOUND_MS, latency
+    lines = source.read_bytes().splitlines(keepends=True)
+    held, stop = threading.Event(), threading.Event()
 
-            page.click("#record")
-            page.wait_for_function("document.getElementById('recording').textContent.startsWith('recording')")
-            page.wait_for_timeout(500)
-            page.click("#record")
-            page.wait_for_function("document.getElementById('message').textContent.startsWith('recorded')")
-            recorded = page.text_content("#message").split()[-1]
-            lines = (tmp_path / "rec" / recorded).read_bytes().splitlines(keepends=True)
-            start = estimated.index(lines[1])
-            assert lines[0] == estimated[0] and len(lines) > 100 and lines[1:] == estimated[start : start + len(lines) - 1]
+    def feed(stdin) -> None:  # ten lines every 10 ms; the hold ends when the page is done with it
+        stdin.write(lines[0])
+        k, written, start = 1, 0, time.monotonic()
+        while k < len(lines) and not stop.is_set():
+            if held.is_set() and k <= hold_s * rate:
+                k = int(hold_s * rate) + 1
+            stdin.write(b"".join(lines[k : k + 10]))
+            stdin.flush()
+            k, written = k + 10, written + 10
+            time.sleep(max(0.0, start + written / rate - time.monotonic()))
 
-            page.fill("#tare-samples", "50")
-            page.click("#tare")
-            page.wait_for_function("document.getElementById('message').textContent.startsWith('tared on 50 samples')",
-                                   timeout=WAIT_S * 1e3)  # fmt: skip
-            shown = [float(v.rstrip(",")) for v in page.text_content("#offsets").split()[:2]]
-            assert shown == list(load)
-            page.wait_for_function("document.getElementById('force-N').textContent === '0.00'", timeout=WAIT_S * 1e3)
-            page.click("#save-calibration")
-            page.wait_for_function("document.getElementById('message').textContent.startsWith('saved')")
-            saved = tmp_path / "rec" / page.text_content("#message").split()[-1]
-            assert Calibration.load(saved).offsets == tuple(map(float, load))
+    with live_process(["--calibration", d / "static.json", "-", "--record-dir", tmp_path / "rec"], stdin=True) as live:
+        feeder = threading.Thread(target=feed, args=(live.process.stdin.buffer,), daemon=True)
+        feeder.start()
+        try:
+            with browser_page(live.url) as page:
+                page.wait_for_function(f"document.getElementById('force-N').textContent === '{expected}'",
+                                       timeout=WAIT_S * 1e3)  # fmt: skip
+                assert page.text_content("#fx-N") == f"{fx:.2f}" and page.text_content("#fy-N") == f"{fy:.2f}"
+                assert page.text_content("#angle-deg") == f"{np.degrees(np.arctan2(fy, fx)):.1f}"
+                assert page.text_content("#status") == "ok"
+                page.wait_for_timeout(2000)
+                latency = latencies_ms(page)
+                # the rows keep coming while the stream runs, each with its time of reading
+                assert latency.size > 30 and np.all(np.isfinite(latency)), latency
+                assert np.median(latency) <= LIVE_LATENCY_BOUND_MS, latency
 
-            page.wait_for_function("document.getElementById('status').textContent === 'singular'", timeout=WAIT_S * 1e3)
-            assert page.text_content("#force-N") == "–"
-            page.screenshot(path=str(tmp_path / "live.png"), full_page=True)
+                page.click("#record")
+                page.wait_for_function("document.getElementById('recording').textContent.startsWith('recording')")
+                page.wait_for_timeout(500)
+                page.click("#record")
+                page.wait_for_function("document.getElementById('message').textContent.startsWith('recorded')")
+                recorded = page.text_content("#message").split()[-1]
+                kept = (tmp_path / "rec" / recorded).read_bytes().splitlines(keepends=True)
+                start = estimated.index(kept[1])
+                assert kept[0] == estimated[0] and len(kept) > 100 and kept[1:] == estimated[start : start + len(kept) - 1]
+
+                page.fill("#tare-samples", "50")
+                page.click("#tare")
+                page.wait_for_function("document.getElementById('message').textContent.startsWith('tared on 50 samples')",
+                                       timeout=WAIT_S * 1e3)  # fmt: skip
+                shown = [float(v.rstrip(",")) for v in page.text_content("#offsets").split()[:2]]
+                assert shown == list(load)
+                page.wait_for_function("document.getElementById('force-N').textContent === '0.00'", timeout=WAIT_S * 1e3)
+                page.click("#save-calibration")
+                page.wait_for_function("document.getElementById('message').textContent.startsWith('saved')")
+                saved = tmp_path / "rec" / page.text_content("#message").split()[-1]
+                assert Calibration.load(saved).offsets == tuple(map(float, load))
+
+                held.set()
+                page.wait_for_function("document.getElementById('status').textContent === 'singular'", timeout=WAIT_S * 1e3)
+                assert page.text_content("#force-N") == "–"
+                page.screenshot(path=str(tmp_path / "live.png"), full_page=True)
+        finally:
+            stop.set()
+            feeder.join(5)
     assert (tmp_path / "live.png").stat().st_size > 10_000
 
 

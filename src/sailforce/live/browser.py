@@ -59,13 +59,16 @@ def _drain(stream, sink) -> None:
 
 
 @contextmanager
-def live_process(args: list[str], *, cwd: str | Path | None = None) -> Iterator[LiveProcess]:
+def live_process(args: list[str], *, cwd: str | Path | None = None, stdin: bool = False) -> Iterator[LiveProcess]:
     """``sail live ARGS --port 0`` in a process of its own; stopped (SIGTERM) on exit.
 
-    Both its outputs are read on threads, so that it never blocks on a full pipe.
+    Both its outputs are read on threads, so that it never blocks on a full pipe.  With ``stdin``, its standard
+    input is a pipe, ``process.stdin`` (text; bytes through its ``buffer``), for a source ``-`` that the caller writes
+    as it goes.
     """
     command = [sys.executable, "-c", "from sailforce.cli import main; main()", "live", *map(str, args), "--port", "0"]
-    process = subprocess.Popen(command, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(command, cwd=cwd, stdin=subprocess.PIPE if stdin else None, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)  # fmt: skip
     lines: queue.Queue = queue.Queue()
     stderr: list[str] = []
     threading.Thread(target=_drain, args=(process.stdout, lines.put), daemon=True).start()
