@@ -40,12 +40,13 @@ def local_cluster(logs: Path, workers: int = 2) -> Iterator[tuple[str, list[subp
                          "--host", "127.0.0.1") for i in range(workers)]  # fmt: skip
         processes += started
         yield address, started
-    finally:
-        for process in processes:
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGTERM)
-        for process in processes:
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
+    finally:  # the workers first: stopped after their scheduler, a run took 17 s instead of 7 about every other time
+        for stage in (processes[1:], processes[:1]):
+            for process in stage:
+                if process.poll() is None:
+                    os.killpg(process.pid, signal.SIGTERM)
+            for process in stage:
+                try:
+                    process.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    os.killpg(process.pid, signal.SIGKILL)
