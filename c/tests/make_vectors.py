@@ -84,8 +84,11 @@ def _sail_together(*commands: list[str]) -> None:
     second of imports: ten in a row were 7 s of ``make c-test``'s 13)."""
     processes = [subprocess.Popen([sys.executable, "-m", "sailforce.cli", *args], stdout=subprocess.PIPE,
                                   stderr=subprocess.STDOUT, text=True) for args in commands]  # fmt: skip
-    failed = [(args, out) for args, process in zip(commands, processes)
-              if (out := process.communicate()[0]) is not None and process.returncode != 0]  # fmt: skip
+    failed = []
+    for args, process in zip(commands, processes):
+        out, _ = process.communicate()
+        if process.returncode != 0:
+            failed.append((args, out))
     if failed:
         sys.exit("\n".join(f"sail {' '.join(args)} failed:\n{out}" for args, out in failed))
 
