@@ -92,6 +92,26 @@ def test_a_stall_as_a_clock_bin_opens_does_not_tilt_the_stamps():
     assert np.max(np.abs(mapped[25:] - 0.015 - true[25:])) <= 2e-3
 
 
+def test_a_stall_over_a_stream_s_first_part_second_does_not_tilt_the_stamps():
+    """The stream starts 30 ms before a second ends on the device's clock, and the reader stalls over those 30 ms and
+    5 more (a loaded machine): that first bin's few rows all came late, and its least delay, joined to the next
+    bin's as a drift of 7 ms/s, put the stamps 6.3 ms off (a fresh-clone CI run, 3 December).  A bin with fewer than
+    half the fullest bin's samples does not join the fit: the stamps hold 2 ms."""
+    device = lambda true: 1000.0 + (1 + 50e-6) * true
+    start = 1101.0 - 0.03  # on the device's clock
+    true = (start - 1000.0) / (1 + 50e-6) + 0.002 * np.arange(960)
+    arrival = true + 0.015
+    arrival[arrival < arrival[0] + 0.035] = arrival[0] + 0.035  # the first 35 ms held by the stall, then read at once
+    clock = DeviceClock()
+    mapped, k = np.empty(true.size), 0
+    while k < true.size:  # each block all that has arrived within 10 ms of its first line
+        j = k + int(np.count_nonzero(arrival[k:] <= arrival[k] + 0.01))
+        mapped[k:j] = clock.to_lsl(device(true[k:j]), arrival[k:j])
+        k = j
+    assert np.floor(device(true[0])) == 1100.0 and np.count_nonzero(np.floor(device(true)) == 1100.0) == 15
+    assert np.max(np.abs(mapped[25:] - 0.015 - true[25:])) <= 2e-3
+
+
 def test_a_regular_stream_declares_its_rate():
     assert nominal_rate(0.002 * np.arange(64) + 0.00001 * np.sin(np.arange(64))) == pytest.approx(500.0, rel=1e-3)
     assert nominal_rate(np.cumsum(np.random.default_rng(1).exponential(0.002, 64))) == 0.0

@@ -89,7 +89,9 @@ class DeviceClock:
     of ``arrival - t`` (transport only adds delay).  Each :data:`BIN_S` bin of the last :data:`WINDOW_S` keeps its
     least delay; the offset is the line fitted through the newest run of the bins' lower convex hull whose edges
     slope no more than :data:`MAX_DRIFT` (the device's drift), as clock-skew estimation from one-way delays does
-    (Moon, Skelly and Towsley, IEEE INFOCOM 1999); the newest bin, still open, joins the fit once closed.  An edge
+    (Moon, Skelly and Towsley, IEEE INFOCOM 1999); the newest bin, still open, joins the fit once closed, and a bin
+    with fewer than half the fullest bin's samples (the part of a second a stream starts or resumes in) never does:
+    one stall can hold all of its few rows, and its least delay would tilt the line as a drift.  An edge
     steeper than any clock drifts is a delay that passed (a reader that stalled on its first rows), and the hull
     before it is left out.  A step back in ``t`` or a jump of the offset beyond :data:`RESET_S` (a device that
     restarted) starts the fit again."""
@@ -101,17 +103,19 @@ class DeviceClock:
     MAX_DRIFT = 0.01
 
     def __init__(self) -> None:
-        self._bins: deque[list[float]] = deque()  # [bin, t at the least delay, least delay]
+        self._bins: deque[list[float]] = deque()  # [bin, t at the least delay, least delay, samples]
         self._last = -math.inf
 
     def offset(self, t: np.ndarray) -> np.ndarray:
         """The fitted ``arrival - t`` at ``t``."""
         if not self._bins:
             return np.full(np.shape(t), np.nan)
-        bins = np.array([b[1:] for b in self._bins])
+        bins = np.array([b[1:3] for b in self._bins])
+        counts = np.array([b[3] for b in self._bins])
         # the newest bin is still open: its least delay so far may be a stall's, as the bin opened, and as the hull's
         # last vertex it would tilt the line by that much; it enters once closed (and the constant below at once)
-        points = _drifting_envelope(bins[:-1], self.MAX_DRIFT) if len(bins) > 2 else bins[:0]
+        closed = bins[:-1][counts[:-1] >= counts.max() / 2]
+        points = _drifting_envelope(closed, self.MAX_DRIFT) if len(closed) >= 2 else bins[:0]
         if len(points) < 2 or np.ptp(points[:, 0]) < self.BIN_S:
             return np.full(np.shape(t), bins[:, 1].min())
         slope, intercept = np.polyfit(points[:, 0] - points[0, 0], points[:, 1], 1)
@@ -126,10 +130,11 @@ class DeviceClock:
             self._last = time_s
             index = math.floor(time_s / self.BIN_S)
             if self._bins and self._bins[-1][0] == index:
+                self._bins[-1][3] += 1
                 if delay < self._bins[-1][2]:
-                    self._bins[-1][1:] = [time_s, delay]
+                    self._bins[-1][1:3] = [time_s, delay]
             else:
-                self._bins.append([index, time_s, delay])
+                self._bins.append([index, time_s, delay, 1])
             while self._bins and self._bins[0][0] < index - self.WINDOW_S / self.BIN_S:
                 self._bins.popleft()
 
